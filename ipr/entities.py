@@ -1,0 +1,227 @@
+"""Motion entities and events: what the interpreter hands to the interpolator.
+
+Everything here is in machine coordinates and millimetres: work offsets (G54–G59,
+G92), tool length offsets (G43) and inch units (G20) are already applied, so a
+consumer never sees a program's units or offsets. Feeds are in mm/s.
+
+The types are small, immutable and stable: ipo/ and machine/ depend on them.
+Every item carries `line`, the 1-based source line of the block that produced it
+(for a NURBS group, the line of its first block).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal, Union
+
+import numpy as np
+
+Vec3 = tuple[float, float, float]
+Plane = Literal["XY", "ZX", "YZ"]
+
+# Index of the two in-plane axes and the normal axis for each plane, RS274NGC
+# orientation: G18's first axis is Z, so a CCW arc in ZX turns from +Z to +X.
+PLANE_AXES: dict[str, tuple[int, int, int]] = {"XY": (0, 1, 2), "ZX": (2, 0, 1), "YZ": (1, 2, 0)}
+
+
+@dataclass(frozen=True, slots=True)
+class PathControl:
+    """G61 exact stop, or G64 continuous with optional P blend and Q merge tolerances."""
+
+    exact_stop: bool = False
+    blend_tol_mm: float | None = None
+    merge_tol_mm: float | None = None
+
+
+EXACT_STOP = PathControl(exact_stop=True)
+CONTINUOUS = PathControl()
+
+
+@dataclass(frozen=True, slots=True)
+class Rapid:
+    """G0: straight traverse at the machine's rapid rate."""
+
+    line: int
+    start: Vec3
+    end: Vec3
+    path: PathControl = CONTINUOUS
+
+    feed_mm_s = None
+
+
+@dataclass(frozen=True, slots=True)
+class Line:
+    """G1: straight feed move."""
+
+    line: int
+    start: Vec3
+    end: Vec3
+    feed_mm_s: float
+    path: PathControl = CONTINUOUS
+
+
+@dataclass(frozen=True, slots=True)
+class Arc:
+    """G2/G3: circular (or helical) feed move.
+
+    `center` lies in the plane of `start` (its normal-axis coordinate equals the
+    start's); the normal-axis travel from start to end is the helix. `turns` counts
+    the extra full revolutions (P word), 0 for an ordinary arc. A full circle has
+    end == start in the plane and sweeps 2*pi.
+    """
+
+    line: int
+    start: Vec3
+    end: Vec3
+    center: Vec3
+    plane: Plane
+    ccw: bool
+    feed_mm_s: float
+    turns: int = 0
+    path: PathControl = CONTINUOUS
+
+    @property
+    def radius_mm(self) -> float:
+        a, b, _ = PLANE_AXES[self.plane]
+        return float(np.hypot(self.start[a] - self.center[a], self.start[b] - self.center[b]))
+
+    @property
+    def sweep_rad(self) -> float:
+        """Signed angle swept in the plane (positive = CCW), including full turns."""
+        a, b, _ = PLANE_AXES[self.plane]
+        a0 = np.arctan2(self.start[b] - self.center[b], self.start[a] - self.center[a])
+        a1 = np.arctan2(self.end[b] - self.center[b], self.end[a] - self.center[a])
+        if self.ccw:
+            sweep = (a1 - a0) % (2 * np.pi)
+            sweep = sweep if sweep > 1e-12 else 2 * np.pi
+        else:
+            sweep = -((a0 - a1) % (2 * np.pi))
+            sweep = sweep if sweep < -1e-12 else -2 * np.pi
+        return float(sweep + np.copysign(2 * np.pi * self.turns, sweep))
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Nurbs:
+    """A NURBS curve: G06.2 (Fanuc), G6.2 and G5.2 (LinuxCNC) all become this.
+
+    `knots` has len(points) + degree + 1 entries, clamped (first and last repeated
+    degree + 1 times), so the curve starts at points[0] == start and ends at
+    points[-1] == end. `points` is (n, 3) in mm, `weights` (n,) all > 0.
+    Arrays are read-only.
+    """
+
+    line: int
+    degree: int
+    knots: np.ndarray
+    weights: np.ndarray
+    points: np.ndarray
+    feed_mm_s: float
+    path: PathControl = CONTINUOUS
+
+    @property
+    def start(self) -> Vec3:
+        return tuple(float(c) for c in self.points[0])
+
+    @property
+    def end(self) -> Vec3:
+        return tuple(float(c) for c in self.points[-1])
+
+
+@dataclass(frozen=True, slots=True)
+class Dwell:
+    """G4 P: stand still for `seconds`."""
+
+    line: int
+    seconds: float
+
+
+Motion = Union[Rapid, Line, Arc, Nurbs]
+
+
+@dataclass(frozen=True, slots=True)
+class Spindle:
+    """M3/M4/M5 with S: `rpm` is the programmed speed, direction None means stopped."""
+
+    line: int
+    rpm: float
+    direction: Literal["cw", "ccw"] | None
+
+
+@dataclass(frozen=True, slots=True)
+class Coolant:
+    """M7/M8/M9."""
+
+    line: int
+    mist: bool
+    flood: bool
+
+
+@dataclass(frozen=True, slots=True)
+class ToolChange:
+    """M6 with T."""
+
+    line: int
+    tool: int
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """(MSG, ...) comment."""
+
+    line: int
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class Stop:
+    """M0 (optional=False) or M1 (optional=True) program stop."""
+
+    line: int
+    optional: bool
+
+
+@dataclass(frozen=True, slots=True)
+class ProgramEnd:
+    """M2 or M30."""
+
+    line: int
+
+
+Event = Union[Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd]
+Entity = Union[Rapid, Line, Arc, Nurbs, Dwell, Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd]
+
+MOTION_TYPES = (Rapid, Line, Arc, Nurbs)
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """An error or warning tied to a place in the source."""
+
+    file: str
+    line: int
+    col: int
+    code: str
+    message: str
+    severity: Literal["error", "warning", "notice"] = "error"
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}: {self.severity}[{self.code}]: {self.message}"
+
+
+class GCodeError(Exception):
+    """The interpreter's only exception type: one or more diagnostics."""
+
+    def __init__(self, diagnostics: list[Diagnostic]):
+        self.diagnostics = diagnostics
+        super().__init__("\n".join(str(d) for d in diagnostics))
+
+
+@dataclass(slots=True)
+class Program:
+    """A whole interpreted program: entities in execution order plus notices."""
+
+    file: str
+    entities: list[Entity] = field(default_factory=list)
+    warnings: list[Diagnostic] = field(default_factory=list)
+
+    def motions(self) -> list[Motion]:
+        return [e for e in self.entities if isinstance(e, MOTION_TYPES)]
