@@ -11,6 +11,12 @@ import click
 
 COMMANDS = {
     "parse": "machine.commands.parse",
+    "interp": "machine.commands.interp",
+    "run": "machine.commands.run",
+    "plot": "machine.commands.plot",
+    "stream": "machine.commands.stream",
+    "fit": "machine.commands.fit",
+    "compare": "machine.commands.compare",
 }
 
 
