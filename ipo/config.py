@@ -1,0 +1,230 @@
+"""Machine configuration: a TOML file read once into typed, validated dataclasses.
+
+The documented default is `ipo/machine.toml` (linked as `programs/machine.toml`);
+`default_config()` reads that same file, so the two can never disagree.
+Every bad value raises ConfigError naming the offending key.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+METHODS = ("recursive", "taylor1", "taylor2", "constant-du")
+ACCEL_MODES = ("trapezoid", "scurve")
+SERVO_MODELS = ("none", "lag", "pd")
+AXIS_NAMES = ("x", "y", "z")
+WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60))
+
+
+class ConfigError(ValueError):
+    """A bad machine configuration; the message starts with the key."""
+
+    def __init__(self, key: str, message: str):
+        self.key = key
+        super().__init__(f"{key}: {message}")
+
+
+@dataclass(frozen=True, slots=True)
+class AxisLimits:
+    max_velocity_mm_s: float
+    max_accel_mm_s2: float
+    max_jerk_mm_s3: float
+    min_mm: float
+    max_mm: float
+
+
+@dataclass(frozen=True, slots=True)
+class Tool:
+    length_mm: float = 0.0
+    ball_radius_mm: float = 0.0  # 0 for a flat end mill
+    flutes: int = 2
+
+
+@dataclass(frozen=True, slots=True)
+class Finishing:
+    """002's roughness limiter settings; `tool` is a key of MachineConfig.tools."""
+
+    tool: int
+    pick_feed_mm: float
+    roughness_target_um: float | Literal["isotropic"] = "isotropic"
+
+
+@dataclass(frozen=True, slots=True)
+class Servo:
+    model: Literal["none", "lag", "pd"] = "none"
+    time_constant_s: float = 0.0
+    kp_1_s: float = 0.0
+    kd: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class MachineConfig:
+    period_s: float
+    blu_mm: float
+    chord_tol_mm: float
+    g64_blend_tol_mm: float
+    method: str
+    axes: tuple[AxisLimits, AxisLimits, AxisLimits]
+    rapid_mm_s: float
+    work_offsets_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    tools: dict[int, Tool] = field(default_factory=dict)
+    finishing: Finishing | None = None
+    servo: Servo = Servo()
+    accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+
+
+def _take(table: dict, key: str, prefix: str) -> Any:
+    if key not in table:
+        raise ConfigError(prefix + key, "missing")
+    return table[key]
+
+
+def _number(value: Any, key: str, *, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(key, f"must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ConfigError(key, f"must be > 0, got {value!r}")
+    if nonneg and value < 0:
+        raise ConfigError(key, f"must be >= 0, got {value!r}")
+    return float(value)
+
+
+def _choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ConfigError(key, f"must be one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def _no_extra(table: dict, allowed: set[str], prefix: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise ConfigError(prefix + str(key), "unknown key")
+
+
+def _axis(table: Any, name: str) -> AxisLimits:
+    prefix = f"axes.{name}."
+    if not isinstance(table, dict):
+        raise ConfigError(f"axes.{name}", "must be a table")
+    fields = ("max_velocity_mm_s", "max_accel_mm_s2", "max_jerk_mm_s3")
+    _no_extra(table, set(fields) | {"min_mm", "max_mm"}, prefix)
+    vals = [_number(_take(table, f, prefix), prefix + f, positive=True) for f in fields]
+    lo = _number(_take(table, "min_mm", prefix), prefix + "min_mm")
+    hi = _number(_take(table, "max_mm", prefix), prefix + "max_mm")
+    if lo >= hi:
+        raise ConfigError(prefix + "max_mm", f"must exceed min_mm ({lo}), got {hi}")
+    return AxisLimits(*vals, lo, hi)
+
+
+def _tools(table: Any) -> dict[int, Tool]:
+    if not isinstance(table, dict):
+        raise ConfigError("tools", "must be a table")
+    tools = {}
+    for key, t in table.items():
+        prefix = f"tools.{key}."
+        if not str(key).isdigit():
+            raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
+        if not isinstance(t, dict):
+            raise ConfigError(f"tools.{key}", "must be a table")
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes"}, prefix)
+        flutes = t.get("flutes", 2)
+        if isinstance(flutes, bool) or not isinstance(flutes, int) or flutes < 1:
+            raise ConfigError(prefix + "flutes", f"must be an integer >= 1, got {flutes!r}")
+        tools[int(key)] = Tool(_number(t.get("length_mm", 0.0), prefix + "length_mm"),
+                               _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm",
+                                       nonneg=True), flutes)
+    return tools
+
+
+def _work_offsets(table: Any) -> dict[str, tuple[float, float, float]]:
+    if not isinstance(table, dict):
+        raise ConfigError("work_offsets_mm", "must be a table")
+    out = {}
+    for key, v in table.items():
+        k = f"work_offsets_mm.{key}"
+        if key not in WORK_OFFSET_NAMES:
+            raise ConfigError(k, f"must be one of {', '.join(WORK_OFFSET_NAMES)}")
+        if not isinstance(v, list) or len(v) != 3:
+            raise ConfigError(k, f"must be a list of 3 numbers, got {v!r}")
+        out[key] = tuple(_number(c, k) for c in v)
+    return out
+
+
+def _finishing(table: Any, tools: dict[int, Tool]) -> Finishing:
+    if not isinstance(table, dict):
+        raise ConfigError("finishing", "must be a table")
+    _no_extra(table, {"tool", "pick_feed_mm", "roughness_target_um"}, "finishing.")
+    tool = _take(table, "tool", "finishing.")
+    if isinstance(tool, bool) or not isinstance(tool, int) or tool not in tools:
+        raise ConfigError("finishing.tool", f"must name a tool of the [tools] table, got {tool!r}")
+    if tools[tool].ball_radius_mm <= 0:
+        raise ConfigError("finishing.tool", f"tool {tool} has no ball radius (tools.{tool}.ball_radius_mm)")
+    pick = _number(_take(table, "pick_feed_mm", "finishing."), "finishing.pick_feed_mm", positive=True)
+    if pick >= 2 * tools[tool].ball_radius_mm:
+        raise ConfigError("finishing.pick_feed_mm", f"must be below the ball diameter, got {pick}")
+    target = table.get("roughness_target_um", "isotropic")
+    if target != "isotropic":
+        target = _number(target, "finishing.roughness_target_um", positive=True)
+    return Finishing(tool, pick, target)
+
+
+def _servo(table: Any) -> Servo:
+    if not isinstance(table, dict):
+        raise ConfigError("servo", "must be a table")
+    _no_extra(table, {"model", "time_constant_s", "kp_1_s", "kd"}, "servo.")
+    model = _choice(table.get("model", "none"), "servo.model", SERVO_MODELS)
+    servo = Servo(model, *(_number(table.get(k, 0.0), "servo." + k, nonneg=True)
+                           for k in ("time_constant_s", "kp_1_s", "kd")))
+    if model == "lag" and servo.time_constant_s <= 0:
+        raise ConfigError("servo.time_constant_s", "must be > 0 for model = 'lag'")
+    if model == "pd" and servo.kp_1_s <= 0:
+        raise ConfigError("servo.kp_1_s", "must be > 0 for model = 'pd'")
+    return servo
+
+
+def config_from_dict(data: dict) -> MachineConfig:
+    """Validate a parsed TOML document into a MachineConfig."""
+    top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo"}
+    _no_extra(data, top, "")
+    axes_table = _take(data, "axes", "")
+    if not isinstance(axes_table, dict):
+        raise ConfigError("axes", "must be a table with x, y and z")
+    _no_extra(axes_table, set(AXIS_NAMES), "axes.")
+    axes = tuple(_axis(_take(axes_table, a, "axes."), a) for a in AXIS_NAMES)
+    tools = _tools(data.get("tools", {}))
+    period = _number(_take(data, "period_s", ""), "period_s", positive=True)
+    blu = _number(_take(data, "blu_mm", ""), "blu_mm", positive=True)
+    return MachineConfig(
+        period_s=period,
+        blu_mm=blu,
+        chord_tol_mm=_number(_take(data, "chord_tol_mm", ""), "chord_tol_mm", positive=True),
+        g64_blend_tol_mm=_number(data.get("g64_blend_tol_mm", 0.0), "g64_blend_tol_mm", nonneg=True),
+        method=_choice(data.get("method", "recursive"), "method", METHODS),
+        axes=axes,
+        rapid_mm_s=_number(_take(data, "rapid_mm_s", ""), "rapid_mm_s", positive=True),
+        work_offsets_mm=_work_offsets(data.get("work_offsets_mm", {})),
+        tools=tools,
+        finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
+        servo=_servo(data.get("servo", {})),
+        accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+    )
+
+
+def load_config(path: str | Path) -> MachineConfig:
+    """Read and validate a machine TOML file."""
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
+    return config_from_dict(data)
+
+
+def default_config() -> MachineConfig:
+    """The documented default, read from the packaged machine.toml."""
+    with resources.files("ipo").joinpath("machine.toml").open("rb") as fh:
+        return config_from_dict(tomllib.load(fh))
