@@ -1,0 +1,101 @@
+"""Per-axis servo model: what the axes actually do with the commanded positions.
+
+One loop law covers both configured models: the axis velocity is
+    dx/dt = kp·(c − x) + kd·dc/dt
+(a proportional position loop with velocity feed-forward fraction kd). The "lag"
+model is the first-order lag with time constant tau: kp = 1/tau, kd = 0; "pd" uses
+the configured kp (1/s) and kd (0…1). Between two periods the command c moves
+linearly (the drive interpolates the setpoint), and the law is integrated exactly
+over that segment, so the model has no discretisation error of its own.
+
+Ramp check: a constant command velocity v settles at the following error
+(1 − kd)·v/kp; a circle of radius R at angular rate w under the lag model settles on
+a circle of radius R/sqrt(1 + (w·tau)²).
+
+Contour error is the distance from the actual position to the commanded path (the
+polyline through the commanded points), searched over the recent segments only.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _follow(cmd, c0, x0, a, gain_ramp, out):
+    """Exact solution of de/dt = (1-kd)·dc/dt − kp·e over each linear command segment."""
+    e = c0 - x0
+    prev = c0.copy()
+    for k in range(cmd.shape[0]):
+        for i in range(3):
+            dc = cmd[k, i] - prev[i]
+            e[i] = a * e[i] + gain_ramp * dc
+            out[k, i] = cmd[k, i] - e[i]
+            prev[i] = cmd[k, i]
+
+
+@njit(cache=True)
+def _contour(actual, path, first, window, out):
+    """out[k] = distance from actual[k] to the polyline path[max(0, first+k-window) .. first+k]."""
+    for k in range(actual.shape[0]):
+        end = first + k
+        start = max(0, end - window)
+        best = np.inf
+        px, py, pz = actual[k, 0], actual[k, 1], actual[k, 2]
+        for j in range(start, end + 1):
+            ax, ay, az = path[j, 0], path[j, 1], path[j, 2]
+            if j < end:
+                dx, dy, dz = path[j + 1, 0] - ax, path[j + 1, 1] - ay, path[j + 1, 2] - az
+            else:
+                dx, dy, dz = 0.0, 0.0, 0.0
+            wx, wy, wz = px - ax, py - ay, pz - az
+            dd = dx * dx + dy * dy + dz * dz
+            t = 0.0
+            if dd > 0.0:
+                t = min(1.0, max(0.0, (wx * dx + wy * dy + wz * dz) / dd))
+            ex, ey, ez = wx - t * dx, wy - t * dy, wz - t * dz
+            d2 = ex * ex + ey * ey + ez * ez
+            if d2 < best:
+                best = d2
+        out[k] = math.sqrt(best)
+
+
+class ServoModel:
+    """State of the three axis loops; `follow` takes commanded positions batch by batch."""
+
+    def __init__(self, kp_1_s: float, kd: float, period_s: float, start_mm):
+        if not kp_1_s > 0:
+            raise ValueError(f"servo kp must be > 0 (got {kp_1_s})")
+        if not 0 <= kd <= 1:
+            raise ValueError(f"servo kd (velocity feed-forward) must be within 0..1 (got {kd})")
+        self.kp_1_s = kp_1_s
+        self.kd = kd
+        self._a = math.exp(-kp_1_s * period_s)
+        self._gain_ramp = (1.0 - kd) * (1.0 - self._a) / (kp_1_s * period_s)
+        self._command = np.array(start_mm, dtype=float)
+        self.actual_mm = np.array(start_mm, dtype=float)
+        # Segments searched for the contour error: 6 lag time constants back.
+        self.window = int(math.ceil(6.0 * (1.0 - kd) / (kp_1_s * period_s))) + 2
+        self._tail = self._command[None, :].copy()
+
+    @classmethod
+    def lag(cls, time_constant_s: float, period_s: float, start_mm) -> "ServoModel":
+        if not time_constant_s > 0:
+            raise ValueError(f"servo time constant must be > 0 (got {time_constant_s})")
+        return cls(1.0 / time_constant_s, 0.0, period_s, start_mm)
+
+    def follow(self, cmd_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Actual positions (N, 3) and contour errors (N,) in mm for the next N commanded points."""
+        cmd_mm = np.ascontiguousarray(cmd_mm, dtype=float)
+        actual = np.empty_like(cmd_mm)
+        _follow(cmd_mm, self._command, self.actual_mm.copy(), self._a, self._gain_ramp, actual)
+        path = np.concatenate((self._tail, cmd_mm))
+        contour = np.empty(len(cmd_mm))
+        _contour(actual, path, len(self._tail), self.window, contour)
+        if len(cmd_mm):
+            self._command = cmd_mm[-1].copy()
+            self.actual_mm = actual[-1].copy()
+            self._tail = path[-(self.window + 1):].copy()
+        return actual, contour
