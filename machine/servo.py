@@ -1,16 +1,17 @@
 """Per-axis servo model: what the axes actually do with the commanded positions.
 
-One loop law covers both configured models: the axis velocity is
-    dx/dt = kp·(c − x) + kd·dc/dt
-(a proportional position loop with velocity feed-forward fraction kd). The "lag"
-model is the first-order lag with time constant tau: kp = 1/tau, kd = 0; "pd" uses
-the configured kp (1/s) and kd (0…1). Between two periods the command c moves
-linearly (the drive interpolates the setpoint), and the law is integrated exactly
-over that segment, so the model has no discretisation error of its own.
+The axes are velocity-commanded; one loop law covers both configured models:
+    dx/dt = g·(c − x) + f·dc/dt
+(proportional gain g in 1/s, velocity feed-forward fraction f). The "lag" model is
+the first-order lag with time constant tau: g = 1/tau, f = 0. The "pd" model is a
+PD law on the following error e = c − x, dx/dt = kp·e + kd·de/dt, which solves to
+g = kp/(1 + kd), f = kd/(1 + kd). Between two periods the command c moves linearly
+(the drive interpolates the setpoint), and the law is integrated exactly over that
+segment, so the model adds no discretisation error of its own.
 
 Ramp check: a constant command velocity v settles at the following error
-(1 − kd)·v/kp; a circle of radius R at angular rate w under the lag model settles on
-a circle of radius R/sqrt(1 + (w·tau)²).
+(1 − f)·v/g (= v·tau for the lag, v/kp for the PD loop); a circle of radius R at
+angular rate w under the lag model settles on a circle of radius R/sqrt(1 + (w·tau)²).
 
 Contour error is the distance from the actual position to the commanded path (the
 polyline through the commanded points), searched over the recent segments only.
@@ -65,26 +66,37 @@ def _contour(actual, path, first, window, out):
 class ServoModel:
     """State of the three axis loops; `follow` takes commanded positions batch by batch."""
 
-    def __init__(self, kp_1_s: float, kd: float, period_s: float, start_mm):
-        if not kp_1_s > 0:
-            raise ValueError(f"servo kp must be > 0 (got {kp_1_s})")
-        if not 0 <= kd <= 1:
-            raise ValueError(f"servo kd (velocity feed-forward) must be within 0..1 (got {kd})")
-        self.kp_1_s = kp_1_s
-        self.kd = kd
-        self._a = math.exp(-kp_1_s * period_s)
-        self._gain_ramp = (1.0 - kd) * (1.0 - self._a) / (kp_1_s * period_s)
+    def __init__(self, gain_1_s: float, feedforward: float, period_s: float, start_mm):
+        self._a = math.exp(-gain_1_s * period_s)
+        self._gain_ramp = (1.0 - feedforward) * (1.0 - self._a) / (gain_1_s * period_s)
         self._command = np.array(start_mm, dtype=float)
         self.actual_mm = np.array(start_mm, dtype=float)
-        # Segments searched for the contour error: 6 lag time constants back.
-        self.window = int(math.ceil(6.0 * (1.0 - kd) / (kp_1_s * period_s))) + 2
+        # Segments searched for the contour error: 6 time constants of the error decay back.
+        self.window = int(math.ceil(6.0 / (gain_1_s * period_s))) + 2
         self._tail = self._command[None, :].copy()
 
     @classmethod
     def lag(cls, time_constant_s: float, period_s: float, start_mm) -> "ServoModel":
         if not time_constant_s > 0:
-            raise ValueError(f"servo time constant must be > 0 (got {time_constant_s})")
+            raise ValueError(f"servo.time_constant_s must be > 0 for the lag model (got {time_constant_s})")
         return cls(1.0 / time_constant_s, 0.0, period_s, start_mm)
+
+    @classmethod
+    def pd(cls, kp_1_s: float, kd: float, period_s: float, start_mm) -> "ServoModel":
+        if not kp_1_s > 0:
+            raise ValueError(f"servo.kp_1_s must be > 0 for the pd model (got {kp_1_s})")
+        if not kd >= 0:
+            raise ValueError(f"servo.kd must be >= 0 (got {kd})")
+        return cls(kp_1_s / (1.0 + kd), kd / (1.0 + kd), period_s, start_mm)
+
+    @classmethod
+    def from_config(cls, servo, period_s: float, start_mm) -> "ServoModel | None":
+        """The model an ipo.config.Servo asks for; None for model "none"."""
+        if servo.model == "lag":
+            return cls.lag(servo.time_constant_s, period_s, start_mm)
+        if servo.model == "pd":
+            return cls.pd(servo.kp_1_s, servo.kd, period_s, start_mm)
+        return None
 
     def follow(self, cmd_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Actual positions (N, 3) and contour errors (N,) in mm for the next N commanded points."""

@@ -155,12 +155,14 @@ def test_lag_servo_ramp_following_error_is_v_tau():
     assert np.max(np.concatenate((contour, contour2))) < 1e-12  # it lags along the line, not off it
 
 
-def test_pd_servo_feed_forward_shrinks_the_following_error():
+def test_pd_servo_follows_the_pd_law_on_a_ramp():
     kp, kd, T, v = 40.0, 0.75, 1e-3, 20.0
     n = 1000
-    cmd = np.column_stack((np.zeros(n), v * T * np.arange(1, n + 1), np.zeros(n)))
-    actual, _ = ServoModel(kp, kd, T, (0, 0, 0)).follow(cmd)
-    assert cmd[-1, 1] - actual[-1, 1] == pytest.approx((1 - kd) * v / kp, rel=1e-6)
+    t = T * np.arange(1, n + 1)
+    cmd = np.column_stack((np.zeros(n), v * t, np.zeros(n)))
+    actual, _ = ServoModel.pd(kp, kd, T, (0, 0, 0)).follow(cmd)
+    # e' = v − kp·e − kd·e'  =>  e(t) = (v/kp)·(1 − exp(−kp·t/(1 + kd)))
+    np.testing.assert_allclose(cmd[:, 1] - actual[:, 1], v / kp * (1 - np.exp(-kp * t / (1 + kd))), atol=1e-12)
 
 
 def test_lag_servo_on_a_circle_has_the_analytic_contour_error():
