@@ -41,7 +41,7 @@ def test_limiter_matches_brute_force(alpha_deg, target):
 
 
 def test_regimes_agree_at_critical_angle():
-    fi = np.linspace(0.1, 0.4, 50)  # above ~0.09 mm the critical angle exists (eq. 4 real)
+    fi = np.linspace(0.12, 0.4, 50)  # above ~0.11 mm the critical angle exists (eq. 4 real)
     ac = rg.critical_alpha_rad(R, fi, FP)
     assert np.all(ac > 0)
     np.testing.assert_allclose(rg.rmax_tip_mm(R, fi, ac), rg.rmax_no_tip_mm(R, fi, FP), rtol=1e-9)
