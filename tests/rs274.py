@@ -1,0 +1,108 @@
+"""Run LinuxCNC's standalone interpreter (`rs274 -g FILE`) and read its canonical calls back.
+
+rs274 prints motion in the program's current units and in the current work coordinate
+system; this module converts every move to machine millimetres (adding the printed G5x,
+G92 and tool length offsets) so it compares directly with vcnc's entities.
+
+ARC_FEED(first_end, second_end, first_center, second_center, rotation, axis_end, a, b, c)
+names the active plane's axes in RS274NGC order (XY: X,Y,Z; XZ: Z,X,Y; YZ: Y,Z,X), the
+same order as ipr.entities.PLANE_AXES; |rotation| is the number of revolutions (P).
+"""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from ipr.entities import PLANE_AXES
+
+RS274 = shutil.which("rs274")
+INCH_MM = 25.4
+HALF_LAST_DIGIT = 0.5e-4  # rs274 prints lengths with "%.4f"
+
+_CALL = re.compile(r"^\s*\d+\s+N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$")
+_PLANES = {"CANON_PLANE_XY": "XY", "CANON_PLANE_XZ": "ZX", "CANON_PLANE_YZ": "YZ"}
+
+
+@dataclass(frozen=True)
+class CanonMove:
+    """One STRAIGHT_TRAVERSE / STRAIGHT_FEED / ARC_FEED, in machine mm."""
+
+    kind: str  # "rapid" | "line" | "arc"
+    end_mm: tuple[float, float, float]
+    feed_mm_s: float | None
+    tol_mm: float  # half the last printed digit, in mm: the comparison tolerance
+    center_mm: tuple[float, float, float] | None = None
+    plane: str | None = None
+    rotation: int | None = None
+
+
+def require_rs274() -> str:
+    if RS274 is None:
+        pytest.skip("LinuxCNC's rs274 is not installed (Debian package linuxcnc-uspace; .ci/run installs it)")
+    return RS274
+
+
+def run_rs274(path: Path, var_file: Path | None = None) -> str:
+    """rs274's canon output for `path`; raises with rs274's own message if it rejects the program."""
+    # -b turns block delete on, as it is by default in vcnc (ipr.Setup.block_delete)
+    cmd = [require_rs274(), "-g", "-b"] + (["-v", str(var_file)] if var_file else []) + [str(path)]
+    done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120)
+    if done.returncode != 0:
+        raise RuntimeError(f"rs274 rejected {path}: {done.stderr.strip()}")
+    return done.stdout
+
+
+def _numbers(args: str) -> list[float]:
+    return [float(t) for t in re.split(r"[,\s]+", args.strip()) if t]
+
+
+def canon_moves(output: str) -> list[CanonMove]:
+    """The moves in rs274's output, converted to machine mm, with the feed in force for each."""
+    mm_per_unit = 1.0
+    g5x = g92 = (0.0, 0.0, 0.0)
+    tool_z_mm = 0.0
+    plane = "XY"
+    feed_mm_s = 0.0
+    moves: list[CanonMove] = []
+    for text in output.splitlines():
+        m = _CALL.match(text)
+        if not m:
+            continue
+        name, args = m.groups()
+        if name == "USE_LENGTH_UNITS":
+            mm_per_unit = INCH_MM if "INCHES" in args else 1.0
+        elif name == "SET_G5X_OFFSET":
+            g5x = tuple(v * mm_per_unit for v in _numbers(args)[1:4])
+        elif name == "SET_G92_OFFSET":
+            g92 = tuple(v * mm_per_unit for v in _numbers(args)[0:3])
+        elif name == "USE_TOOL_LENGTH_OFFSET":
+            tool_z_mm = _numbers(args)[2] * mm_per_unit
+        elif name == "SELECT_PLANE":
+            plane = _PLANES[args.strip()]
+        elif name == "SET_FEED_RATE":
+            feed_mm_s = _numbers(args)[0] * mm_per_unit / 60.0
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
+            offset = (g5x[0] + g92[0], g5x[1] + g92[1], g5x[2] + g92[2] + tool_z_mm)
+            v = _numbers(args)
+            tol = HALF_LAST_DIGIT * mm_per_unit
+            if name == "ARC_FEED":
+                a, b, n = PLANE_AXES[plane]
+                end = [0.0, 0.0, 0.0]
+                end[a], end[b], end[n] = v[0], v[1], v[5]
+                center = [0.0, 0.0, 0.0]
+                center[a], center[b] = v[2], v[3]
+                end_mm = tuple(end[i] * mm_per_unit + offset[i] for i in range(3))
+                # the centre's normal-axis coordinate is left as NaN: vcnc puts it at the start's
+                center_mm = tuple(center[i] * mm_per_unit + offset[i] if i != n else float("nan")
+                                  for i in range(3))
+                moves.append(CanonMove("arc", end_mm, feed_mm_s, tol, center_mm, plane, int(v[4])))
+            else:
+                end_mm = tuple(v[i] * mm_per_unit + offset[i] for i in range(3))
+                kind = "rapid" if name == "STRAIGHT_TRAVERSE" else "line"
+                moves.append(CanonMove(kind, end_mm, None if kind == "rapid" else feed_mm_s, tol))
+    return moves

@@ -1,0 +1,223 @@
+"""Property tests of the interpreter's input handling.
+
+1. Random, mutated and hostile input never raises anything but ipr.entities.GCodeError, and
+   every diagnostic points at a real place (line >= 1, 1 <= col <= length of that line + 1).
+2. The fast line path (`ipr.parse_line`) gives exactly what the full lark grammar
+   (`ipr.parse_line_full`) gives, on random valid lines and on broken ones.
+"""
+from __future__ import annotations
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import math
+
+import ipr
+from ipr.entities import MOTION_TYPES, GCodeError
+
+SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+# ---- valid lines ---------------------------------------------------------------------------------
+
+_sp = st.sampled_from(["", "", "", " ", "  ", "\t"])
+_digits = st.integers(0, 99999).map(str)
+_unsigned = st.one_of(
+    _digits,
+    st.tuples(_digits, _digits).map(lambda t: f"{t[0]}.{t[1]}"),
+    _digits.map(lambda d: f"{d}."),
+    _digits.map(lambda d: f".{d}"),
+)
+_number = st.builds(lambda sign, s, n: f"{sign}{s}{n}", st.sampled_from(["", "", "-", "+"]), _sp, _unsigned)
+_name = st.text("abcdefghijklmnopqrstuvwxyz_", min_size=1, max_size=8)
+_param = st.one_of(st.integers(1, 5399).map(lambda n: f"#{n}"), _name.map(lambda n: f"#<{n}>"))
+_FUNCS = ["ABS", "ACOS", "ASIN", "COS", "EXP", "FIX", "FUP", "LN", "ROUND", "SIN", "SQRT", "TAN"]
+_OPS = ["+", "-", "*", "/", "MOD", "**", "AND", "OR", "XOR", "EQ", "NE", "GT", "GE", "LT", "LE"]
+
+
+def _case(text: str, draw) -> str:
+    return "".join(c.lower() if draw(st.booleans()) else c for c in text)
+
+
+@st.composite
+def expression(draw, depth: int = 0) -> str:
+    """A bracketed RS274NGC expression (syntactically valid; its value may be an error)."""
+    atom = st.one_of(_number, _param)
+    if depth >= 2:
+        body = draw(atom)
+    else:
+        kind = draw(st.sampled_from(["atom", "binary", "func", "atan", "nested"]))
+        if kind == "atom":
+            body = draw(atom)
+        elif kind == "binary":
+            parts = [draw(st.one_of(atom, expression(depth + 1)))]
+            for _ in range(draw(st.integers(1, 3))):
+                parts += [draw(st.sampled_from(_OPS)), draw(st.one_of(atom, expression(depth + 1)))]
+            body = " ".join(parts)
+        elif kind == "func":
+            body = f"{draw(st.sampled_from(_FUNCS))}{draw(expression(depth + 1))}"
+        elif kind == "atan":
+            body = f"ATAN{draw(expression(depth + 1))}/{draw(expression(depth + 1))}"
+        else:
+            body = draw(expression(depth + 1))
+    return _case(f"[{body}]", draw)
+
+
+_value = st.one_of(_number, _number, _number, expression(), _param)
+_WORD_LETTERS = "GMXYZIJKFSTPQRLHN"
+_comment = st.one_of(
+    st.text(st.characters(blacklist_characters="()\n\r", blacklist_categories=("Cs",)), max_size=12)
+    .map(lambda t: f"({t})"),
+    st.text("abc ,", max_size=10).map(lambda t: f"(MSG,{t})"),
+)
+
+
+@st.composite
+def valid_line(draw) -> str:
+    """A syntactically valid block: words (maybe spaced, lowercase), comments, expressions, assignments."""
+    parts = []
+    if draw(st.integers(0, 9)) == 0:
+        parts.append("/")
+    if draw(st.booleans()):
+        parts.append(f"{draw(st.sampled_from('Nn'))}{draw(_sp)}{draw(st.integers(0, 9999))}")
+    for _ in range(draw(st.integers(0, 6))):
+        kind = draw(st.sampled_from(["word"] * 6 + ["comment", "assign"]))
+        if kind == "word":
+            letter = draw(st.sampled_from(_WORD_LETTERS))
+            if letter in "GM":
+                code = draw(st.sampled_from(["0", "00", "1", "01", "2", "3", "4", "17", "18", "19", "20", "21",
+                                             "5.2", "5.3", "6.2", "06.2", "40", "43", "49", "53", "54", "55",
+                                             "61", "64", "80", "90", "91", "90.1", "91.1", "92", "92.1", "94"]))
+                value = code if letter == "G" else draw(st.sampled_from(["0", "1", "2", "3", "4", "5", "6", "7",
+                                                                         "8", "9", "30"]))
+            else:
+                value = draw(_value)
+            parts.append(f"{_case(letter, draw)}{draw(_sp)}{value}")
+        elif kind == "comment":
+            parts.append(draw(_comment))
+        else:
+            parts.append(f"{draw(_param)}{draw(_sp)}={draw(_sp)}{draw(_value)}")
+    line = "".join(p + draw(_sp) for p in parts)
+    if draw(st.integers(0, 4)) == 0:
+        line += "; " + draw(st.text("abc XYZ()[]#", max_size=10))
+    return line
+
+
+# ---- broken and hostile lines --------------------------------------------------------------------
+
+_HOSTILE = [
+    "[1/0]", "[1 MOD 0]", "[SQRT[-1]]", "[LN[0]]", "[LN[-1]]", "[ACOS[2]]", "[ASIN[-2]]", "[10**400]",
+    "[EXP[1000]]", "[-8**[1/3]]", "[0**-1]", "[FIX[" + "9" * 400 + "]]", "[ROUND[" + "9" * 400 + "]]",
+    "9" * 400, "1" + "0" * 30, "[ATAN[0]/[0]]", "[TAN[90]]", "#99999", "#-1", "#0", "#[1/0]", "#<>",
+    "#<undefined_name>", "#1.5", "[" * 300 + "1" + "]" * 300, "[" * 40, "]" * 5, "[1+]", "[*2]",
+    "[COS]", "[ATAN[1]]", "[FOO[1]]", "..5", "1.2.3", "--1", "+-1", "1e5", "0x10", "nan", "inf", "",
+]
+_FRAGMENTS = _HOSTILE + ["G", "X", "#", "=", "(", ")", ";", "%", "/", "O12", "G1", "G2", "G6.2", "G5.2", "G5.3",
+                         "G41", "G93", "G28", "G4 P", "M6", "M99", "T", "R", "K", "L9", "P99", "Q", "E5", "@", "\\",
+                         "é", "\x00", "\x7f", "\ufeff", "中"]
+
+
+@st.composite
+def mutated_line(draw) -> str:
+    """A valid line with random cuts, insertions (including hostile fragments) and truncation."""
+    line = draw(valid_line())
+    for _ in range(draw(st.integers(1, 4))):
+        op = draw(st.sampled_from(["insert", "delete", "truncate", "fragment"]))
+        at = draw(st.integers(0, len(line)))
+        if op == "insert":
+            line = line[:at] + draw(st.text(min_size=1, max_size=3)) + line[at:]
+        elif op == "delete":
+            line = line[:at] + line[at + draw(st.integers(1, 4)):]
+        elif op == "truncate":
+            line = line[:at]
+        else:
+            letter = draw(st.sampled_from(_WORD_LETTERS + "ABCDEUVW"))
+            line = line[:at] + f" {letter}{draw(st.sampled_from(_FRAGMENTS))} " + line[at:]
+    return line
+
+
+_decoded_bytes = st.binary(max_size=40).flatmap(
+    lambda b: st.sampled_from([b.decode("latin-1"), b.decode("utf-8", errors="replace")]))
+any_line = st.one_of(mutated_line(), mutated_line(), _decoded_bytes, st.text(max_size=30), valid_line())
+
+# A context that makes motion words meaningful (units, feed, a position): errors then come from the block.
+_PREAMBLE = ["G21 G90 G17 F100", "G0 X1 Y2 Z3", "#1=2 #<s>=0.5"]
+
+
+def _check_diagnostics(diagnostics, lines: list[str]) -> None:
+    assert diagnostics, "GCodeError without a diagnostic"
+    for d in diagnostics:
+        assert d.line >= 1 and d.col >= 1, str(d)
+        assert d.code and d.message, str(d)
+        if d.line <= len(lines):
+            assert d.col <= len(lines[d.line - 1]) + 1, f"{d} is past the end of {lines[d.line - 1]!r}"
+        else:
+            assert d.line == len(lines) + 1, f"{d} is beyond the end of a {len(lines)}-line program"
+
+
+def _check_finite(program) -> None:
+    """Accepted input must not smuggle inf/nan into the motion (e.g. X followed by 400 nines)."""
+    for m in program.entities:
+        if isinstance(m, MOTION_TYPES):
+            values = [*m.start, *m.end, *getattr(m, "center", ()), m.feed_mm_s or 0.0,
+                      *(m.points.ravel().tolist() if hasattr(m, "points") else ())]
+            assert all(math.isfinite(v) for v in values), f"non-finite value in {m!r}"
+
+
+@SETTINGS
+@given(st.lists(any_line, min_size=1, max_size=4), st.booleans(), st.booleans())
+def test_garbage_only_raises_gcode_error(body: list[str], preamble: bool, all_errors: bool) -> None:
+    text = "\n".join((_PREAMBLE if preamble else []) + body) + "\n"
+    lines = text.split("\n")[:-1]
+    try:
+        program = ipr.parse_text(text, "fuzz.ngc", all_errors=all_errors)
+    except GCodeError as err:
+        _check_diagnostics(err.diagnostics, lines)
+        assert all(d.file == "fuzz.ngc" and d.severity == "error" for d in err.diagnostics)
+        return
+    for w in program.warnings:
+        assert w.line >= 1 and w.col >= 1, str(w)
+    _check_finite(program)
+
+
+@SETTINGS
+@given(st.sampled_from(_HOSTILE), st.sampled_from("XYZFIJRPS#"), st.sampled_from(["G1", "G2", "G0", "G4", "G6.2"]))
+def test_hostile_values_give_clear_errors(value: str, letter: str, motion: str) -> None:
+    word = f"{letter}{value}" if letter != "#" else f"#1={value}"
+    text = f"G21 G90 F100\nG0 X1 Y1\n{motion} {word}\n"
+    try:
+        program = ipr.parse_text(text, "hostile.ngc")
+    except GCodeError as err:
+        _check_diagnostics(err.diagnostics, text.split("\n")[:-1])
+        return
+    _check_finite(program)
+
+
+def _outcome(parse, line: str):
+    try:
+        return ("ok", parse(line))
+    except GCodeError as err:
+        return ("error", [(d.line, d.col, d.code) for d in err.diagnostics])
+
+
+@SETTINGS
+@given(valid_line())
+def test_fast_path_equals_full_grammar_on_valid_lines(line: str) -> None:
+    assert _outcome(ipr.parse_line, line) == _outcome(ipr.parse_line_full, line)
+
+
+@SETTINGS
+@given(st.one_of(mutated_line(), st.text(st.characters(blacklist_characters="\r\n"), max_size=30)))
+def test_fast_path_equals_full_grammar_on_broken_lines(line: str) -> None:
+    line = line.replace("\n", " ").replace("\r", " ")
+    assert _outcome(ipr.parse_line, line) == _outcome(ipr.parse_line_full, line)
+
+
+def test_fast_path_equals_full_grammar_on_corpus_shapes() -> None:
+    """Hand-picked line shapes from the corpus and the spec, spacing and case variants included."""
+    lines = ["G1 X0.0000 Y1.0000", "G01 X0.0006 Y1.0000", " X3.1940 Z-0.1539", "G3 X3.094 Y4.858 Z-0.154 I0.0013 K0.0205",
+             "Y[#2*-56.12] Z[#3*-27.725]", "G1 Z[#3*-25.372] F[#4*100]", "#1 = .5", " Z5.0 G43  H00 M8",
+             "G6.2 X54.493 Y52.139 R1 K0 P5 Q1", "    X55.507 Y52.139 R1 K0", "G6.2 K47", "G5.2 X3.53   Y-1.50   P2",
+             "g1 x 1 y - 2.5 f 100", "G1 X1 (comment) Y2 ; more", "(MSG, hello world)", "N10 G0 X1", "/G1 X5",
+             "G06.2 P4 K0. X0. Y0. Z0. R1. F5000.", "K1.", "%", "", "   ", "G1 X1.Y2.", "G1X-.5Y+.5"]
+    for line in lines:
+        assert _outcome(ipr.parse_line, line) == _outcome(ipr.parse_line_full, line), line

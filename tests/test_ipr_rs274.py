@@ -1,0 +1,210 @@
+"""Differential test: vcnc's interpreter against LinuxCNC's `rs274 -g` on the same programs.
+
+Every STRAIGHT_TRAVERSE / STRAIGHT_FEED / ARC_FEED rs274 prints must match vcnc's
+Rapid / Line / Arc (end point, arc centre, plane, direction, turns, feed) to rs274's
+printed precision (4 decimals, in the program's units). rs274's output is read and
+converted to machine mm by tests/rs274.py.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+from conftest import corpus_files
+from rs274 import CanonMove, INCH_MM, canon_moves, require_rs274, run_rs274
+
+import ipr
+from ipr.entities import PLANE_AXES, Arc, Line, Rapid
+
+_KIND = {Rapid: "rapid", Line: "line", Arc: "arc"}
+_FLOAT_SLACK = 1e-9  # mm: float noise on top of the printed-precision tolerance
+
+
+def _describe(move: CanonMove, entity) -> str:
+    return f"vcnc {entity!r}\n  rs274 {move!r}"
+
+
+def mismatches(moves: list[CanonMove], entities: list) -> list[str]:
+    """Every disagreement between rs274's moves and vcnc's motion entities (empty when they agree)."""
+    motions = [e for e in entities if type(e) in _KIND]
+    problems = []
+    if len(motions) != len(moves):
+        problems.append(f"rs274 made {len(moves)} moves, vcnc {len(motions)} Rapid/Line/Arc entities")
+    for i, (move, ent) in enumerate(zip(moves, motions)):
+        if _KIND[type(ent)] != move.kind:
+            problems.append(f"move {i}: kind {_KIND[type(ent)]} != {move.kind}: {_describe(move, ent)}")
+            continue
+        tol = move.tol_mm + _FLOAT_SLACK
+        if any(abs(ent.end[k] - move.end_mm[k]) > tol for k in range(3)):
+            problems.append(f"move {i}: end differs: {_describe(move, ent)}")
+        if move.feed_mm_s is not None:
+            feed_tol = move.tol_mm / 60.0 + 1e-9 * move.feed_mm_s
+            if abs(ent.feed_mm_s - move.feed_mm_s) > feed_tol:
+                problems.append(f"move {i}: feed {ent.feed_mm_s} mm/s != {move.feed_mm_s}: {_describe(move, ent)}")
+        if move.kind == "arc":
+            a, b, _ = PLANE_AXES[move.plane]
+            if ent.plane != move.plane:
+                problems.append(f"move {i}: plane {ent.plane} != {move.plane}: {_describe(move, ent)}")
+            elif any(abs(ent.center[k] - move.center_mm[k]) > tol for k in (a, b)):
+                problems.append(f"move {i}: centre differs: {_describe(move, ent)}")
+            if ent.ccw != (move.rotation > 0) or ent.turns != abs(move.rotation) - 1:
+                problems.append(f"move {i}: direction/turns differ: {_describe(move, ent)}")
+        if len(problems) > 20:
+            problems.append("... (stopped after 20)")
+            break
+    return problems
+
+
+@pytest.mark.parametrize("path", corpus_files("g1_*.ngc"))
+def test_corpus_matches_rs274(path: Path) -> None:
+    """The corpus's G0–G3 programs (all of them, stellabee1's 169k lines included: ~1 s in rs274)."""
+    moves = canon_moves(run_rs274(path))
+    assert len(moves) > 1000  # every g1_* program is thousands of moves: guards against a broken reader
+    problems = mismatches(moves, ipr.parse_file(path).entities)
+    assert not problems, "\n".join(problems)
+
+
+# Small programs exercising the modal features of the spec, run through both interpreters,
+# with the number of moves each makes, counted by hand.
+PROGRAMS = {
+    "incremental": (8, """G21 G90 G17
+G0 X1 Y2 Z3
+G91 G1 X1 Y-1 Z0.5 F120
+X1
+G2 X2 Y0 I1 J0
+G3 X-1 Y1 R1 Z-0.5
+G90 G1 X0 Y0 Z0
+G91 G0 Z2
+G90 X5
+M2
+"""),
+    "g92_g53": (7, """G21 G90
+G0 X5 Y6 Z7
+G92 X0 Y0 Z0
+G1 X1 F100
+G2 X2 Y1 I0 J1
+G53 G0 X1 Y1
+G1 Y2
+G92 X10
+G1 X11 Y3
+G92.1
+G1 X1 Y1 Z1
+M2
+"""),
+    "planes_and_r_format": (13, """G21 G90 G17
+G0 X0 Y0 Z0
+G1 X10 F300
+G3 X0 Y10 R10
+G2 X10 Y0 R-10
+G18 G2 X20 Z0 I5 K0
+G3 X10 Z0 R5
+G2 X20 Z0 R-5.5
+G19 G2 Y10 Z10 J5 K5
+G3 Y0 Z0 R10
+G2 Y-5 Z5 R-5
+G17 G2 X10 Y-5 I-5 J0
+G90.1 G3 X20 Y-5 I15 J-5
+G91.1 G2 X20 Y-5 I-5 J0
+M2
+"""),
+    "helix_and_turns": (5, """G21 G90 G17
+G0 X10 Y0 Z0
+G3 X10 Y0 Z-3 I-10 J0 P3 F200
+G2 X-10 Y0 Z-5 I-10 J0
+G18 G3 X0 Z-15 Y2 I10 K0 P2
+G19 G2 Y2 Z-15 X5 J-3 K0
+M2
+"""),
+    "inch": (6, """G20 G90 G17
+G0 X1 Y1 Z0.5
+G1 X2 F10
+G2 X3 Y2 I0 J1
+G3 X2.5 Y2.5 R0.5
+G21 G1 X10 Y10 F250
+G20 G1 X0.5 F7.5
+M2
+"""),
+    "expressions": (8, """G21 G90
+#1=2
+#<scale>=0.5
+#2=[#1*3]
+G1 X[#1*#<scale>] Y[SIN[30]*2] Z[ATAN[1]/[1]] F[100+20]
+G1 X[2**3] Y[7 MOD 3] Z[ROUND[2.5]+FIX[-1.5]+FUP[1.2]]
+G1 X[ABS[-4]+SQRT[9]] Y[EXP[1]] Z[LN[10]]
+G1 X[ACOS[0.5]/10] Y[ASIN[0.5]/10] Z[TAN[45]+COS[60]]
+#1=5 G1 X#1 Y#2
+G1 X#1 Y[1 LT 2] Z[[3 GE 2] + [1 EQ 1] + [2 NE 2]]
+G1 X[1 AND 0] Y[1 OR 0] Z[1 XOR 1]
+G1 X[-#1] Y[--2] Z[1-2-3]
+M2
+"""),
+    "syntax": (7, """%
+G21 G90
+n10 g0 x1 y2 z3
+G 1 X 1 . 5 Y - 2 F 60
+G1 (inline comment) X2 (another) Y3 ; trailing comment
+g2x3y2i0.5j-0.5
+/G1 X100 Y100
+G01 X+4 Y.5
+G00 X4. Y-0.
+X5
+%
+"""),
+    "offsets_g54_g59": (7, """G21 G90
+G0 X1 Y1 Z1
+G54 G1 X2 F100
+G55 G0 X0 Y0 Z0
+G2 X1 Y1 I1 J0
+G59 G0 X0 Y0 Z0
+G53 G0 X0 Y0 Z0
+G54 G1 X0 Y0 Z0
+M2
+"""),
+}
+
+# G54, G55 and G59 offsets, given to rs274 as a parameter file (rs274's standalone machine unit is the
+# inch) and to vcnc as its Setup in mm: exactly representable at rs274's printed precision either way.
+_OFFSETS_IN = {"G54": (5220 + 1, (1.0, 2.0, -0.5)), "G55": (5240 + 1, (-0.25, 0.5, 0.125)),
+               "G59": (5320 + 1, (2.0, -1.0, 0.0))}
+
+
+def _var_file(path: Path) -> Path:
+    rows = [(5220, 1.0)]
+    for first, xyz in _OFFSETS_IN.values():
+        rows += [(first + k, v) for k, v in enumerate(xyz)]
+    path.write_text("".join(f"{n}\t{v:.6f}\n" for n, v in rows))
+    return path
+
+
+@pytest.mark.parametrize("name", sorted(PROGRAMS))
+def test_modal_programs_match_rs274(name: str, tmp_path: Path) -> None:
+    require_rs274()
+    src = tmp_path / f"{name}.ngc"
+    n_moves, text = PROGRAMS[name]
+    src.write_text(text)
+    setup = None
+    var_file = None
+    if name == "offsets_g54_g59":
+        var_file = _var_file(tmp_path / "offsets.var")
+        setup = ipr.Setup(work_offsets_mm={k: tuple(v * INCH_MM for v in xyz)
+                                           for k, (_, xyz) in _OFFSETS_IN.items()})
+    output = run_rs274(src, var_file)
+    moves = canon_moves(output)
+    assert len(moves) == n_moves
+    problems = mismatches(moves, ipr.parse_file(src, setup=setup).entities)
+    assert not problems, "\n".join(problems)
+
+
+def test_reader_converts_inches_and_offsets(tmp_path: Path) -> None:
+    """The rs274 reader itself, on a hand-computed case: G20 and a G92 offset reach machine mm."""
+    require_rs274()
+    src = tmp_path / "units.ngc"
+    src.write_text("G20 G90\nG0 X1 Y2 Z0\nG92 X0 Y0\nG1 X1 F6\nG18 G2 X2 Z0 I0.5 K0\nM2\n")
+    rapid, line, arc = canon_moves(run_rs274(src))
+    assert rapid.end_mm == pytest.approx((25.4, 50.8, 0.0))
+    assert line.end_mm == pytest.approx((50.8, 50.8, 0.0)) and line.feed_mm_s == pytest.approx(6 * 25.4 / 60)
+    assert arc.plane == "ZX" and arc.rotation == -1
+    assert arc.end_mm == pytest.approx((76.2, 50.8, 0.0))
+    assert arc.center_mm[0] == pytest.approx(63.5) and arc.center_mm[2] == pytest.approx(0.0)
+    assert math.isnan(arc.center_mm[1])
