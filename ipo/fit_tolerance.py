@@ -1,0 +1,182 @@
+"""Fitting a polyline within a tolerance with the fewest NC blocks.
+
+A G01 polyline is replaced by 001 rational fits only where every point of the
+curve lies within `tol_mm` of the polyline and every point of the polyline within
+`tol_mm` of the curve. Both distances are measured densely and conservatively:
+each is the distance to one particular point of the other path (a segment's
+nearest point, or the curve point found by golden section), so it can only
+overstate the true distance. The control-point count is found by doubling then
+bisection; long polylines are split in two where that needs fewer blocks.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ipo.rational_fit import RationalFit, evaluate, fit_rational, golden_section
+
+SAMPLE_SPACING_MM = 0.02  # densest spacing of check points along a segment
+MIN_SAMPLES, MAX_SAMPLES = 4, 64  # per data interval
+WINDOW = 3  # segments either side of a curve sample's own interval that it is checked against
+MAX_POINTS_PER_FIT = 400  # longer polylines are cut into equal parts first
+
+
+@dataclass(frozen=True, slots=True)
+class Piece:
+    """Vertices first..last (inclusive) of the polyline: a fitted curve, or G01 if fit is None."""
+
+    first: int
+    last: int
+    fit: RationalFit | None
+    deviation_mm: float  # checked max deviation of the fit (0 for G01)
+    reason: str = ""  # why a piece stayed G01
+
+
+def _point_segment_dist(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    ab = b - a
+    len2 = np.einsum("ij,ij->i", ab, ab)
+    t = np.where(len2 > 0, np.einsum("ij,ij->i", p - a, ab) / np.where(len2 > 0, len2, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
+
+
+def _samples_per_interval(q: np.ndarray) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    return np.clip(np.ceil(seg / SAMPLE_SPACING_MM).astype(int) + 1, MIN_SAMPLES, MAX_SAMPLES)
+
+
+def _interval_samples(lo: np.ndarray, hi: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`counts[j]` evenly spaced values on [lo[j], hi[j]] for every j, and their owner j."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    t = (np.arange(counts.sum()) - start[owner]) / (counts[owner] - 1)
+    return lo[owner] + t * (hi[owner] - lo[owner]), owner
+
+
+def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
+    """Upper bound of the two-way distance between the curve and the polyline q."""
+    u = fit.params
+    counts = _samples_per_interval(q)
+    n_seg = len(q) - 1
+    # curve -> polyline: curve samples on each data interval against nearby segments
+    uu, owner = _interval_samples(u[:-1], u[1:], counts)
+    pts = evaluate(fit, uu)
+    to_poly = np.full(len(uu), np.inf)
+    for off in range(-WINDOW, WINDOW + 1):
+        seg = np.clip(owner + off, 0, n_seg - 1)
+        to_poly = np.minimum(to_poly, _point_segment_dist(pts, q[seg], q[seg + 1]))
+    # polyline -> curve: segment samples projected onto the curve near their interval
+    tt, owner = _interval_samples(np.zeros(n_seg), np.ones(n_seg), counts)
+    seg_pts = q[owner] + tt[:, None] * (q[owner + 1] - q[owner])
+    lo = u[np.clip(owner - 1, 0, n_seg)]
+    hi = u[np.clip(owner + 2, 0, n_seg)]
+
+    def dist2(x):
+        return np.sum((seg_pts - evaluate(fit, x)) ** 2, axis=1)
+
+    foot = golden_section(dist2, lo, hi)
+    to_curve = np.sqrt(np.minimum(dist2(foot), np.minimum(dist2(lo), dist2(hi))))
+    return float(max(to_poly.max(), to_curve.max()))
+
+
+def nurbs_blocks(n_ctrl: int, degree: int) -> int:
+    """NC blocks of one G06.2 group: a block per control point, `order` knot blocks, one to restore G1."""
+    return n_ctrl + degree + 2
+
+
+@dataclass(frozen=True, slots=True)
+class FitSettings:
+    tol_mm: float
+    degree: int = 3
+    max_iter: int = 25
+    rel_delta: float = 1e-3
+    rational: bool = True
+
+
+def _try(q: np.ndarray, m: int, s: FitSettings, warm: RationalFit | None) -> tuple[RationalFit, bool]:
+    """Fit with m control points, starting from a previous fit's parameters (rescaled) if given."""
+    params = None
+    if warm is not None:
+        params = warm.params * (m - s.degree) / (len(warm.points) - s.degree)
+    fit = fit_rational(q, m, s.degree, max_iter=s.max_iter, rel_delta=s.rel_delta,
+                       rational=s.rational, params=params, give_up_above=s.tol_mm)
+    ok = (np.all(np.isfinite(fit.points)) and fit.rms_history[-1] <= s.tol_mm
+          and max_deviation(fit, q) <= s.tol_mm)
+    return fit, bool(ok)
+
+
+def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> RationalFit | None:
+    """Smallest control-point count <= m_max whose fit is within tolerance (doubling, then bisection)."""
+    lo = s.degree + 1
+    if m_max < lo:
+        return None
+    bad, m, best, warm = lo - 1, lo, None, None
+    while best is None:
+        warm, ok = _try(q, m, s, warm)
+        if ok:
+            best = warm
+        elif m >= m_max:
+            return None
+        else:
+            bad, m = m, min(2 * m, m_max)
+    hi = m
+    while hi - bad > 1:
+        mid = (hi + bad) // 2
+        fit, ok = _try(q, mid, s, best)
+        if ok:
+            hi, best = mid, fit
+        else:
+            bad = mid
+    return best
+
+
+def _dedupe(q: np.ndarray) -> np.ndarray:
+    """Indices of q without consecutive repeats (a zero-length G01 adds nothing to the path)."""
+    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    keep = np.concatenate([[True], step > 1e-12])
+    keep[-1] = True
+    return np.flatnonzero(keep)
+
+
+def _fit_range(q: np.ndarray, first: int, last: int, s: FitSettings,
+               blocks: Callable[[int], int]) -> list[Piece]:
+    sub = q[first:last + 1]
+    idx = _dedupe(sub)
+    g01_blocks = last - first
+    m_max = len(idx)
+    while m_max > 0 and blocks(m_max) >= g01_blocks:
+        m_max -= 1
+    fit = fewest_ctrl(sub[idx], s, m_max)
+    if fit is None:
+        whole = [Piece(first, last, None, 0.0, "no fit within tolerance saves blocks")]
+        whole_blocks = g01_blocks
+    else:
+        whole = [Piece(first, last, fit, max_deviation(fit, sub[idx]))]
+        whole_blocks = blocks(len(fit.points))
+    n = last - first
+    if n < 4 * (s.degree + 2) or whole_blocks <= 2 * blocks(s.degree + 1):
+        return whole
+    mid = first + n // 2
+    halves = _fit_range(q, first, mid, s, blocks) + _fit_range(q, mid, last, s, blocks)
+    split_blocks = sum(blocks(len(p.fit.points)) if p.fit else p.last - p.first for p in halves)
+    return halves if split_blocks < whole_blocks else whole
+
+
+def fit_polyline(q: np.ndarray, s: FitSettings,
+                 blocks: Callable[[int], int] | None = None) -> list[Piece]:
+    """Cover the vertices 0..len(q)-1 with consecutive pieces (fitted curves or G01)."""
+    q = np.asarray(q, dtype=float)
+    if s.tol_mm <= 0:
+        raise ValueError(f"tolerance must be > 0 mm, got {s.tol_mm}")
+    cost = blocks or (lambda m: nurbs_blocks(m, s.degree))
+    n_seg = len(q) - 1
+    if n_seg < 1:
+        raise ValueError("a polyline needs at least two vertices")
+    parts = int(np.ceil(n_seg / MAX_POINTS_PER_FIT))
+    bounds = np.linspace(0, n_seg, parts + 1).round().astype(int)
+    pieces: list[Piece] = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        pieces += _fit_range(q, int(a), int(b), s, cost)
+    return pieces

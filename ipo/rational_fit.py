@@ -1,0 +1,204 @@
+"""Rational B-spline approximation of point data (001 §2, Appendix I; spec §7).
+
+The rational least-squares problem is non-linear, so 001 alternates three linear
+(or one-dimensional) sub-problems on a uniform clamped knot vector: homogeneous
+control points WP with the weights fixed (eq. 6–7), the weights with WP fixed
+(eq. 8–9), and each data point's parameter by golden-section search (eq. 10–11).
+
+Project choices beyond the paper: the first and last control points are pinned to
+the first and last data points (a toolpath piece must start and end exactly where
+the G01 run did), the weight solve is damped slightly towards the previous weights
+(a straight or nearly straight run leaves the weights undetermined), a weight step
+that would make a weight non-positive is shortened, and the scale is fixed by
+normalising the largest weight to 1 (the curve is unchanged when WP and w scale
+together). Everything is vectorised over all data points.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ipo.nurbs import basis, find_span
+
+GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+MIN_WEIGHT = 1e-3  # relative to the largest weight; keeps the curve away from a pole
+
+
+@dataclass(frozen=True, slots=True)
+class RationalFit:
+    """A fitted curve (clamped, uniform knots) and how the iteration went."""
+
+    degree: int
+    knots: np.ndarray  # (m + degree + 1,)
+    weights: np.ndarray  # (m,) all > 0, largest 1
+    points: np.ndarray  # (m, dim) Cartesian control points P_i = WP_i / w_i
+    params: np.ndarray  # (r,) final parameter of each data point
+    rms_history: np.ndarray  # f_l after each iteration (001 App. I step 5)
+    converged: bool  # stopped by f_{l-1} - f_l < delta before the iteration budget ran out
+
+
+def uniform_knots(n_ctrl: int, degree: int) -> np.ndarray:
+    """Clamped uniform knots on [0, n - k + 2] (k = degree + 1 the order, n = n_ctrl - 1)."""
+    if degree < 1 or n_ctrl < degree + 1:
+        raise ValueError(f"need at least degree + 1 = {degree + 1} control points, got {n_ctrl}")
+    inner = np.arange(1, n_ctrl - degree, dtype=float)
+    end = float(n_ctrl - degree)
+    return np.concatenate([np.zeros(degree + 1), inner, np.full(degree + 1, end)])
+
+
+def chord_params(q: np.ndarray, u_max: float) -> np.ndarray:
+    """Chord-length parameters scaled to [0, u_max] (001 App. I step 1)."""
+    steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    total = steps.sum()
+    if total <= 0.0:
+        raise ValueError("data points are all identical: nothing to fit")
+    return u_max * np.concatenate([[0.0], np.cumsum(steps)]) / total
+
+
+def basis_matrix(knots: np.ndarray, degree: int, u: np.ndarray, n_ctrl: int) -> np.ndarray:
+    """Dense [N]_{r x m} of 001 eq. 6: N[j, i] = N_{i,k}(u_j)."""
+    span = find_span(knots, degree, u)
+    vals = basis(knots, degree, u, span)
+    out = np.zeros((len(u), n_ctrl))
+    cols = span[:, None] - degree + np.arange(degree + 1)[None, :]
+    np.put_along_axis(out, cols, vals, axis=1)
+    return out
+
+
+def eval_homogeneous(knots: np.ndarray, degree: int, wp: np.ndarray, w: np.ndarray,
+                     u: np.ndarray) -> np.ndarray:
+    """C(u) = sum N_i WP_i / sum N_i w_i (001 eq. 10), shape (len(u), dim)."""
+    span = find_span(knots, degree, u)
+    vals = basis(knots, degree, u, span)
+    idx = span[:, None] - degree + np.arange(degree + 1)[None, :]
+    num = np.einsum("ji,jid->jd", vals, wp[idx])
+    den = np.einsum("ji,ji->j", vals, w[idx])
+    return num / den[:, None]
+
+
+def golden_section(dist2, lo: np.ndarray, hi: np.ndarray, iterations: int = 28) -> np.ndarray:
+    """Minimise dist2(u) (vectorised, one unknown per entry) on [lo, hi] by golden section."""  # 001 eq. 11
+    a, b = lo.copy(), hi.copy()
+    c = b - GOLDEN * (b - a)
+    d = a + GOLDEN * (b - a)
+    fc, fd = dist2(c), dist2(d)
+    for _ in range(iterations):
+        left = fc < fd
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        probe = np.where(left, b - GOLDEN * (b - a), a + GOLDEN * (b - a))
+        f_probe = dist2(probe)
+        c, d = np.where(left, probe, d), np.where(left, c, probe)
+        fc, fd = np.where(left, f_probe, fd), np.where(left, fc, f_probe)
+    return 0.5 * (a + b)
+
+
+def _solve_wp(n_mat: np.ndarray, q: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Homogeneous control points with the end points pinned to the data ends."""  # 001 eq. 6-7
+    rhs = q * (n_mat @ w)[:, None]
+    wp = np.empty((n_mat.shape[1], q.shape[1]))
+    wp[0], wp[-1] = w[0] * q[0], w[-1] * q[-1]
+    rhs -= n_mat[:, [0]] * wp[0] + n_mat[:, [-1]] * wp[-1]
+    if n_mat.shape[1] > 2:
+        wp[1:-1] = np.linalg.lstsq(n_mat[:, 1:-1], rhs, rcond=None)[0]
+    return wp
+
+
+def _solve_weights(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w_old: np.ndarray) -> np.ndarray:
+    """Weights with WP fixed, stacked over the coordinates (001 eq. 8–9).
+
+    The pinned ends keep WP_0 = w_0 Q_0 and WP_n = w_n Q_n, so their weights enter
+    as N_{i,k}(u_j) (Q_j - Q_end). A Tikhonov term of relative size 1e-9 towards
+    the previous weights makes the solve well posed where the data do not
+    determine them (straight runs)."""
+    r, m = n_mat.shape
+    dim = q.shape[1]
+    a = q[:, None, :] * n_mat[:, :, None]  # (r, m, dim): Q_j N_ij
+    a[:, 0, :] = n_mat[:, [0]] * (q - q[0])
+    a[:, -1, :] = n_mat[:, [-1]] * (q - q[-1])
+    b = np.einsum("ji,id->jd", n_mat[:, 1:-1], wp[1:-1])
+    a2 = a.transpose(0, 2, 1).reshape(r * dim, m)
+    normal = a2.T @ a2
+    lam = 1e-9 * max(np.trace(normal) / m, 1e-300)
+    return np.linalg.solve(normal + lam * np.eye(m), a2.T @ b.reshape(-1) + lam * w_old)
+
+
+def _positive_step(w_old: np.ndarray, w_new: np.ndarray) -> np.ndarray:
+    """Move from w_old towards w_new as far as every weight stays >= MIN_WEIGHT * max."""
+    floor = MIN_WEIGHT * w_old.max()
+    low = w_new < floor
+    if not low.any():
+        return w_new
+    t = np.min((w_old[low] - floor) / (w_old[low] - w_new[low]))
+    return w_old + max(t, 0.0) * (w_new - w_old)
+
+
+def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int = 30,
+                 rel_delta: float = 1e-3, rational: bool = True,
+                 params: np.ndarray | None = None, give_up_above: float | None = None) -> RationalFit:
+    """001 Appendix I on arrays: q (r, dim) data, n_ctrl control points (r >= n_ctrl).
+
+    Stops when f_{l-1} - f_l < rel_delta * f_{l-1} (or f_l is ~0), or after max_iter
+    iterations; returns the best iterate. rational=False skips the weight step
+    (a non-rational least-squares fit with the same parameter correction).
+    give_up_above: stop early once f_l, falling at its current rate for the
+    iterations left, cannot get below this value (the caller's tolerance)."""
+    q = np.asarray(q, dtype=float)
+    r = len(q)
+    if r < n_ctrl:
+        raise ValueError(f"{r} data points cannot determine {n_ctrl} control points")
+    knots = uniform_knots(n_ctrl, degree)
+    u_max = knots[-1]
+    u = chord_params(q, u_max) if params is None else np.asarray(params, dtype=float).copy()
+    w = np.ones(n_ctrl)
+    scale = max(float(np.ptp(q, axis=0).max()), 1e-300)
+    history: list[float] = []
+    best = None
+    converged = False
+    for _ in range(max_iter):
+        n_mat = basis_matrix(knots, degree, u, n_ctrl)
+        wp = _solve_wp(n_mat, q, w)
+        if rational:
+            w_new = _positive_step(w, _solve_weights(n_mat, q, wp, w))
+            wp[0], wp[-1] = w_new[0] * q[0], w_new[-1] * q[-1]
+            w = w_new
+            s = w.max()
+            w, wp = w / s, wp / s
+        u = _correct_params(knots, degree, wp, w, q, u)
+        err = q - eval_homogeneous(knots, degree, wp, w, u)
+        f_l = float(np.sqrt(np.sum(err**2) / max(r - 1, 1)))  # 001 App. I step 5
+        if best is None or f_l < best[0]:
+            best = (f_l, wp.copy(), w.copy(), u.copy())
+        if history and (history[-1] - f_l < rel_delta * history[-1] or f_l < 1e-12 * scale):
+            history.append(f_l)
+            converged = True
+            break
+        if give_up_above is not None and history:
+            left = max_iter - len(history) - 1
+            if f_l - left * max(history[-1] - f_l, 0.0) > give_up_above:
+                history.append(f_l)
+                break
+        history.append(f_l)
+    _, wp, w, u = best
+    return RationalFit(degree, knots, w, wp / w[:, None], u, np.array(history), converged)
+
+
+def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:
+    """Each interior u_j by golden section in [u_{j-1}, u_{j+1}]; ends stay pinned."""  # 001 eq. 10-11
+    if len(u) <= 2:
+        return u
+    inner = q[1:-1]
+
+    def dist2(uu):
+        return np.sum((inner - eval_homogeneous(knots, degree, wp, w, uu)) ** 2, axis=1)
+
+    new = u.copy()
+    new[1:-1] = golden_section(dist2, u[:-2], u[2:])
+    return np.maximum.accumulate(new)
+
+
+def evaluate(fit: RationalFit, u: np.ndarray) -> np.ndarray:
+    """Points of a fitted curve."""
+    wp = fit.points * fit.weights[:, None]
+    return eval_homogeneous(fit.knots, fit.degree, wp, fit.weights, np.asarray(u, dtype=float))
