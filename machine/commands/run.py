@@ -1,0 +1,162 @@
+"""`vcnc run FILE`: check a program, run it in the virtual controller, print the summary."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+
+import click
+
+
+
+def _load_machine(path):
+    """The machine file, or the built-in default; a bad file names the key and exits."""
+    from ipo.config import ConfigError, default_config, load_config
+
+    try:
+        return default_config() if path is None else load_config(path)
+    except ConfigError as err:
+        raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
+    except OSError as err:
+        raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
+
+
+def _print_summary(result, as_json: bool) -> None:
+    summary = result.summary()
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"vcnc run {summary['file']}: {summary['state']}", show_header=False)
+    table.add_column("figure", style="bold")
+    table.add_column("value", justify="right")
+    for key, value in summary.items():
+        if key in ("file", "state") or value in ([], None) and key in ("program_stops", "messages", "fault"):
+            continue
+        if isinstance(value, list) and value and isinstance(value[0], float):
+            value = "  ".join(f"{v:g}" for v in value)
+        elif isinstance(value, dict):
+            value = ", ".join(f"{k} {v}" for k, v in value.items())
+        elif isinstance(value, float):
+            value = f"{value:.6g}"
+        table.add_row(key, "-" if value is None else str(value))
+    Console().print(table)
+
+
+def _fast_stop_answer(stop) -> bool:
+    """M0/M1 in the as-fast-as-possible mode: ask at a terminal, else resume and say so."""
+    what = "M1 optional stop" if stop.optional else "M0 program stop"
+    if sys.stdin is not None and sys.stdin.isatty():
+        answer = click.prompt(f"{what} at line {stop.line}: Enter to resume, s to stop", default="",
+                              show_default=False, err=True)
+        return answer.strip().lower() not in ("s", "q", "stop")
+    click.echo(f"{what} at line {stop.line}: no terminal to wait at, resuming", err=True)
+    return True
+
+
+def _status_line(player) -> str:
+    d = player.drive
+    x, y, z = d.position_mm
+    state = {"run": "RUN", "hold": "HOLD", "stopping": "STOPPING", "paused": "PAUSED (M0/M1)",
+             "stopped": "STOPPED"}[player.state]
+    return (f"line {d.line:>6}  X{x:10.3f} Y{y:10.3f} Z{z:10.3f}  feed {d.feed_mm_s:7.2f} mm/s  "
+            f"override {player.override * 100:3.0f}%  {state:<15} t {d.t_s:8.2f} s  "
+            f"misses {player.deadline_misses}   [space hold/resume, +/- override, s stop]")
+
+
+def _run_realtime(controller, program):
+    from rich.console import Console
+    from rich.live import Live
+    from rich.text import Text
+
+    from machine.realtime import Keyboard, Player
+
+    with Keyboard() as kb, Live(Text(""), console=Console(stderr=True), refresh_per_second=10,
+                                transient=False) as live:
+        player = Player(keys=kb.keys, status=lambda p: live.update(Text(_status_line(p))))
+        controller.on_program_stop = lambda stop: player.pause(lambda: kb.wait_key(" \nsq") in " \n")
+        return controller.run(program, player=player)
+
+
+def _run_fast(controller, program, show_progress: bool):
+    if not show_progress:
+        return controller.run(program)
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    last_line = max((getattr(e, "line", 0) for e in program.entities), default=1) or 1
+    with Progress(TextColumn("running"), BarColumn(), TextColumn("line {task.completed:.0f}/{task.total:.0f}"),
+                  TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("run", total=last_line)
+        return controller.run(program, progress=lambda line: bar.update(task, completed=line))
+
+
+@click.command("run")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--machine", "machine_file", type=click.Path(dir_okay=False), help="Machine TOML (default: built in).")
+@click.option("--period-ms", type=float, help="Interpolation period in ms (overrides the machine file).")
+@click.option("--method", type=click.Choice(["recursive", "taylor1", "taylor2", "constant-du"]),
+              help="NURBS interpolator (default: the machine file's).")
+@click.option("--feed-override", type=float, default=100.0, show_default=True, help="Feed override in percent.")
+@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write the trace (.npz or .csv).")
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), help="Plot the run into a PNG.")
+@click.option("--realtime", is_flag=True, help="Pace at the period; keys: space hold/resume, +/- override, s stop.")
+@click.option("--optional-stop", is_flag=True, help="Honour M1 optional stops.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, realtime, optional_stop,
+            as_json):
+    """Check FILE, then run it in the virtual controller and print what the machine did."""
+    from machine.controller import Controller, ProgramRejected
+    from machine.trace import MemoryTrace, load_trace, open_writer
+
+    config = _load_machine(machine_file)
+    if period_ms is not None:
+        if not period_ms > 0:
+            raise click.BadParameter("must be > 0", param_hint="--period-ms")
+        config = dataclasses.replace(config, period_s=period_ms / 1000.0)
+    if not feed_override > 0:
+        raise click.BadParameter("must be > 0", param_hint="--feed-override")
+    controller = Controller(config, method=method, feed_override=feed_override / 100.0,
+                            optional_stop=optional_stop, on_program_stop=_fast_stop_answer,
+                            on_event=lambda e: click.echo(f"line {e.line}: {e.text}", err=True)
+                            if hasattr(e, "text") else None)
+    try:
+        program = controller.check(file)
+    except ProgramRejected as rejected:
+        for reason in rejected.reasons:
+            click.echo(reason, err=True)
+        click.echo(f"{file}: not run: {len(rejected.reasons)} problem(s); no axis moved", err=True)
+        sys.exit(1)
+    for warning in program.warnings:
+        click.echo(str(warning), err=True)
+
+    servo = config.servo.model != "none"
+    meta = dict(controller.limits.meta(), file=str(file))
+    writer = open_writer(trace_file, meta, servo) if trace_file else None
+    memory = MemoryTrace(meta) if plot_file and not trace_file else None
+    controller.sinks = [s for s in (writer, memory) if s is not None]
+    try:
+        if realtime:
+            result = _run_realtime(controller, program)
+        else:
+            result = _run_fast(controller, program, show_progress=not as_json and sys.stderr.isatty())
+    finally:
+        if writer is not None:
+            writer.close()
+    _print_summary(result, as_json)
+    if result.state != "completed":
+        click.echo(f"{file}: {result.state} at line {result.line}, position "
+                   f"X{result.position_mm[0]:.4f} Y{result.position_mm[1]:.4f} Z{result.position_mm[2]:.4f}"
+                   + (f": {result.fault}" if result.fault else ""), err=True)
+    if plot_file:
+        from machine.plot import plot_trace
+
+        trace = load_trace(trace_file) if trace_file else memory.close()
+        if len(trace):
+            plot_trace(trace, plot_file, title=f"vcnc run {file}")
+            click.echo(f"plot written to {plot_file}", err=True)
+        else:
+            click.echo(f"{file}: nothing moved, no plot written", err=True)
+    sys.exit({"completed": 0, "stopped": 0, "interrupted": 130}.get(result.state, 1))

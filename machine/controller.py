@@ -1,0 +1,212 @@
+"""The virtual controller: check the whole program, then run it into the drive.
+
+`check` interprets the whole file with every error collected (ipr, all_errors) and
+checks the travel limits of the whole path; any problem refuses the run with every
+reason and its line, before a single period moves. `run` streams the program
+through the feed stage and interpolators (ipo.feed.plan_periods) into the
+simulated drive, either as fast as possible or paced in real time (machine.realtime),
+and handles the program's events: dwell (standing-still periods from the feed stage),
+M0 and M1 (pause; the operator resumes or stops), M2/M30 (end), messages, spindle,
+coolant and tool changes. Ctrl-C stops the run cleanly; the result says where.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ipo.period import PeriodBatch
+from ipr import Setup, parse_file
+from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, ProgramEnd, Program, Spindle, Stop,
+                          ToolChange)
+from machine.drive import Drive, DriveLimits, TravelLimitError
+from machine.extents import travel_violations
+from machine.servo import ServoModel
+
+
+class ProgramRejected(Exception):
+    """The program may not run; `reasons` holds one line per problem, each naming its line."""
+
+    def __init__(self, reasons: list[str]):
+        self.reasons = reasons
+        super().__init__("\n".join(reasons))
+
+
+def setup_for(config) -> Setup:
+    """The interpreter's view of the machine: work offsets and tool lengths."""
+    return Setup(work_offsets_mm=dict(config.work_offsets_mm),
+                 tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()})
+
+
+def start_position(program: Program) -> tuple[float, float, float]:
+    """Where the machine stands before the first move: the first motion's start."""
+    for e in program.entities:
+        if isinstance(e, MOTION_TYPES):
+            return tuple(float(c) for c in e.start)
+    return (0.0, 0.0, 0.0)
+
+
+@dataclass(slots=True)
+class RunResult:
+    file: str
+    state: str  # "completed", "stopped" (operator or M0 answer), "interrupted" (Ctrl-C), "fault"
+    line: int  # the source line being executed when the run ended
+    position_mm: list[float]
+    cycle_time_s: float
+    periods: int
+    blocks: int
+    path_length_mm: float
+    max_axis_velocity_mm_s: list[float]
+    max_axis_accel_mm_s2: list[float]
+    max_axis_jerk_mm_s3: list[float]
+    accel_stencil_periods: int
+    limit_violations: int
+    limit_violations_by_kind: dict[str, int]
+    max_chord_error_um: float
+    max_contour_error_um: float | None
+    deadline_misses: int | None
+    realtime_factor: float
+    wall_s: float
+    check_s: float
+    program_stops: list[int] = field(default_factory=list)
+    messages: list[str] = field(default_factory=list)
+    fault: str | None = None
+
+    def summary(self) -> dict:
+        out = {k: getattr(self, k) for k in self.__slots__}
+        for key in ("cycle_time_s", "path_length_mm", "max_chord_error_um", "max_contour_error_um",
+                    "realtime_factor", "wall_s", "check_s"):
+            if out[key] is not None:
+                out[key] = round(float(out[key]), 6)
+        return out
+
+
+class Controller:
+    """One machine configuration, one run at a time."""
+
+    def __init__(self, config, *, method: str | None = None, feed_override: float = 1.0, sinks=(),
+                 optional_stop: bool = False,
+                 on_program_stop: Callable[[Stop], bool] = lambda stop: True,
+                 on_event: Callable[[object], None] = lambda event: None):
+        if not feed_override > 0:
+            raise ValueError(f"feed override must be > 0 % (got {feed_override * 100:g} %)")
+        self.config = config
+        self.method = method or config.method
+        self.feed_override = feed_override
+        self.sinks = list(sinks)
+        self.optional_stop = optional_stop
+        self.on_program_stop = on_program_stop
+        self.on_event = on_event
+        self.limits = DriveLimits.from_config(config)
+        self.check_s = 0.0
+
+    def check(self, path: str | Path) -> Program:
+        """Interpret and check the whole program; raise ProgramRejected with every reason."""
+        t0 = time.perf_counter()
+        try:
+            program = parse_file(path, setup=setup_for(self.config), all_errors=True)
+        except GCodeError as err:
+            raise ProgramRejected([str(d) for d in err.diagnostics]) from None
+        except OSError as err:
+            raise ProgramRejected([f"{path}: cannot read the program: {err.strerror or err}"]) from None
+        motions = [e for e in program.entities if isinstance(e, MOTION_TYPES)]
+        start = np.array(start_position(program))
+        reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
+                   for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
+        outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
+        if outside.any():
+            reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "
+                              f"is outside the travel")
+        if reasons:
+            raise ProgramRejected(reasons)
+        self.check_s = time.perf_counter() - t0
+        return program
+
+    def make_drive(self, program: Program) -> Drive:
+        start = start_position(program)
+        servo = ServoModel.from_config(self.config.servo, self.config.period_s, start)
+        return Drive(self.limits, start_mm=start, servo=servo, sinks=self.sinks)
+
+    def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
+        """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
+        from ipo.feed import plan_periods
+
+        drive = self.make_drive(program)
+        deliver = player.play if player is not None else drive.receive
+        if player is not None:
+            player.attach(drive)
+        stops: list[int] = []
+        messages: list[str] = []
+        state, fault = "completed", None
+        stream = plan_periods(program.entities, self.config, method=self.method,
+                              feed_override=self.feed_override, start_mm=start_position(program))
+        t0 = time.perf_counter()
+        try:
+            for item in stream:
+                if isinstance(item, PeriodBatch):
+                    deliver(item)
+                    if progress is not None:
+                        progress(drive.line)
+                    if player is not None and player.stopped:
+                        state = "stopped"
+                        break
+                    continue
+                if player is not None:
+                    player.flush()
+                    if player.stopped:
+                        state = "stopped"
+                        break
+                if isinstance(item, ProgramEnd):
+                    drive.line = item.line
+                    break
+                if isinstance(item, Stop):
+                    if item.optional and not self.optional_stop:
+                        continue
+                    stops.append(item.line)
+                    drive.line = item.line
+                    if not self.on_program_stop(item):
+                        state = "stopped"
+                        break
+                elif isinstance(item, Message):
+                    messages.append(f"line {item.line}: {item.text}")
+                    self.on_event(item)
+                elif isinstance(item, (Spindle, Coolant, ToolChange)):
+                    self.on_event(item)
+            else:
+                if player is not None:
+                    player.flush()
+                    state = "stopped" if player.stopped else state
+        except KeyboardInterrupt:
+            state = "interrupted"
+        except TravelLimitError as err:
+            state, fault = "fault", str(err)
+        finally:
+            stream.close()
+            if player is not None:
+                player.detach()
+        wall = time.perf_counter() - t0
+        return self._result(program, drive, state, fault, wall, stops, messages, player)
+
+    def _result(self, program, drive, state, fault, wall, stops, messages, player) -> RunResult:
+        st = drive.stats
+        sim = drive.t_s
+        kinds = {"velocity": st.velocity_violations, "accel": st.accel_violations, "jerk": st.jerk_violations}
+        return RunResult(
+            file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
+            cycle_time_s=sim, periods=st.periods,
+            blocks=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
+            path_length_mm=st.path_length_mm,
+            max_axis_velocity_mm_s=[round(float(v), 4) for v in st.max_velocity_mm_s],
+            max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],
+            max_axis_jerk_mm_s3=[round(float(v), 1) for v in st.max_jerk_mm_s3],
+            accel_stencil_periods=self.limits.stencil_periods(),
+            limit_violations=sum(kinds.values()), limit_violations_by_kind=kinds,
+            max_chord_error_um=st.max_chord_error_mm * 1e3,
+            max_contour_error_um=None if st.max_contour_error_mm is None else st.max_contour_error_mm * 1e3,
+            deadline_misses=None if player is None else player.deadline_misses,
+            realtime_factor=sim / wall if wall > 0 else math.inf, wall_s=wall, check_s=self.check_s,
+            program_stops=stops, messages=messages, fault=fault)
