@@ -1,0 +1,75 @@
+"""IPR: the interpreter. G-code text in, motion entities (ipr.entities) out.
+
+    from ipr import parse_text, parse_file, iter_entities, Setup
+    program = parse_file("part.nc", setup=Setup(work_offsets_mm={"G54": (100, 50, 0)}))
+    for entity in iter_entities(open("big.nc"), "big.nc"):   # streaming, bounded memory
+        ...
+
+Errors raise ipr.entities.GCodeError, whose `diagnostics` print as
+`file:line:col: error[CODE]: message` (codes: ipr/errors.py, docs/gcode-errors.md).
+
+Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar
+(ipr/gcode.lark); `parse_line(text)` returns the same thing through the fast path
+(ipr/syntax.py). Both return an `ipr.syntax.Block`, a NamedTuple:
+
+    Block(words=(("G", 1.0), ("X", 12.5), ("Z", ("*", ("#", 3), 10.0))),
+          assigns=((1, 0.5),),          # #1=.5 ; names are lower-case, no blanks
+          messages=("INSERT TOOL",),    # (MSG, INSERT TOOL)
+          delete=False,                 # the line starts with "/"
+          percent=False)                # the line is "%"
+
+A word's value is a float, or an expression tree where the line has brackets,
+parameters or functions (format: ipr/expressions.py). Both raise
+ipr.syntax.LineSyntaxError (with `col`) on a line the grammar rejects.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+from ipr.entities import Entity, GCodeError, Program
+from ipr.interpreter import Interpreter
+from ipr.modal import Setup
+from ipr.syntax import Block, LineSyntaxError, parse_line, parse_line_full
+
+__all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "parse_line_full",
+           "Block", "LineSyntaxError", "GCodeError", "Program"]
+
+
+def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool) -> Program:
+    interp = Interpreter(file, setup, all_errors)
+    n = 0
+    for n, text in enumerate(lines, 1):
+        interp.feed(n, text)
+        if interp.done:
+            break
+    interp.finish(n)
+    if interp.diagnostics:
+        raise GCodeError(interp.diagnostics)
+    return Program(file, interp.out, interp.warnings)
+
+
+def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
+               all_errors: bool = False) -> Program:
+    """Interpret a whole program; raises GCodeError with the first error (or all of them)."""
+    return _run(text.splitlines(), file, setup, all_errors)
+
+
+def parse_file(path, *, setup: Setup | None = None, all_errors: bool = False) -> Program:
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return _run(f, str(path), setup, all_errors)
+
+
+def iter_entities(lines: Iterable[str], file: str = "<string>", *,
+                  setup: Setup | None = None) -> Iterator[Entity]:
+    """Entities as the lines are read; raises GCodeError at the first error."""
+    interp = Interpreter(file, setup, all_errors=False)
+    out = interp.out
+    n = 0
+    for n, text in enumerate(lines, 1):
+        interp.feed(n, text)
+        if out:
+            yield from out
+            out.clear()
+        if interp.done:
+            break
+    interp.finish(n)

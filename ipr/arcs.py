@@ -1,0 +1,80 @@
+"""G2/G3 geometry: the centre from I/J/K or R, checked against the end point.
+
+All in machine mm, in the plane coordinates of ipr.entities.PLANE_AXES (a, b, normal):
+G17 (X, Y), G18 (Z, X) and G19 (Y, Z), so that "counter-clockwise" is the same rule in
+every plane, as RS274NGC defines it. The centre's normal coordinate is the start's.
+"""
+from __future__ import annotations
+
+import math
+
+from ipr.entities import PLANE_AXES, Arc, PathControl
+from ipr.errors import BlockError
+
+ARC_TOL_MM = 0.002      # gcode.md: end point on the circle within 0.002 mm ...
+ARC_TOL_REL = 0.001     # ... or 0.1 % of the radius, whichever is larger
+# In G20 the absolute part is 0.0002 inch (0.00508 mm): an inch program's last digit is
+# 0.00254 mm, and rounding four numbers (start, end, I, K) to it moves the end by up to
+# ~0.0036 mm (seen in the corpus's g1_stellabee1.ngc). LinuxCNC allows 0.0005 inch.
+ARC_TOL_INCH = 0.0002
+
+
+def radius_tolerance_mm(radius_mm: float, unit_mm: float = 1.0) -> float:
+    absolute = ARC_TOL_MM if unit_mm == 1.0 else ARC_TOL_INCH * unit_mm
+    return max(absolute, ARC_TOL_REL * radius_mm)
+
+
+def center_from_offsets(start, end, plane: str, center_ab: tuple[float, float], word: int | None,
+                        unit_mm: float = 1.0):
+    """Check a centre-format arc: the end must lie on the circle through the start."""
+    a, b, n = PLANE_AXES[plane]
+    ca, cb = center_ab
+    r0 = math.hypot(start[a] - ca, start[b] - cb)
+    r1 = math.hypot(end[a] - ca, end[b] - cb)
+    if r0 < 1e-9:
+        raise BlockError("E-ARC-RADIUS", "arc centre is at the start point (zero radius)", word)
+    if abs(r1 - r0) > radius_tolerance_mm(r0, unit_mm):
+        raise BlockError("E-ARC-RADIUS", f"arc end point is {abs(r1 - r0):.3f} mm off the circle "
+                         f"through the start point (radius {r0:.3f} mm)", word)
+    c = [0.0, 0.0, 0.0]
+    c[a], c[b], c[n] = ca, cb, start[n]
+    return tuple(c)
+
+
+def center_from_radius(start, end, plane: str, radius_mm: float, ccw: bool, word: int | None,
+                       unit_mm: float = 1.0):
+    """Centre of a radius-format arc; negative radius picks the longer arc (RS274NGC)."""
+    a, b, n = PLANE_AXES[plane]
+    da, db = end[a] - start[a], end[b] - start[b]
+    chord = math.hypot(da, db)
+    r = abs(radius_mm)
+    if chord < 1e-9:
+        raise BlockError("E-ARC-R-FULL", "radius-format arc ends where it starts; program a full "
+                         "circle with I/J/K", word)
+    half = chord / 2.0
+    if half > r:
+        if half - r > radius_tolerance_mm(r, unit_mm):
+            raise BlockError("E-ARC-R-SMALL", f"arc radius {r:.4f} mm is smaller than half the "
+                             f"distance to the end point ({half:.4f} mm)", word)
+        half = r
+    # the centre lies right of the chord for a short clockwise arc, left for a short CCW one
+    left = ccw == (radius_mm > 0)
+    h = math.sqrt(max(r * r - half * half, 0.0))
+    ua, ub = -db / chord, da / chord            # unit normal, left of start -> end
+    sign = 1.0 if left else -1.0
+    c = [0.0, 0.0, 0.0]
+    c[a] = start[a] + da / 2.0 + sign * h * ua
+    c[b] = start[b] + db / 2.0 + sign * h * ub
+    c[n] = start[n]
+    return tuple(c)
+
+
+def make_arc(line: int, start, end, plane: str, ccw: bool, feed_mm_s: float, path: PathControl, *,
+             center_ab: tuple[float, float] | None = None, radius_mm: float | None = None,
+             turns: int = 0, word: int | None = None, unit_mm: float = 1.0) -> Arc:
+    """The Arc of a G2/G3 block; unit_mm is 25.4 in G20 (it sets the absolute tolerance)."""
+    if radius_mm is not None:
+        center = center_from_radius(start, end, plane, radius_mm, ccw, word, unit_mm)
+    else:
+        center = center_from_offsets(start, end, plane, center_ab, word, unit_mm)
+    return Arc(line, tuple(start), tuple(end), center, plane, ccw, feed_mm_s, turns, path)

@@ -1,0 +1,124 @@
+"""Parameters and bracketed expressions (RS274NGC §3.5), evaluated on a parameter table.
+
+Expression trees come from ipr.syntax: a float is a constant; ("#", key) reads a
+parameter (key an int, a lower-case name, or a tree giving the number); ("neg", x);
+(op, a, b) for the binary operators (+ - * / mod ** and or xor eq ne gt ge lt le);
+(func, x) for the unary functions; ("atan", y, x). Trigonometry is in degrees.
+"""
+from __future__ import annotations
+
+import math
+
+from ipr.errors import BlockError
+
+MAX_PARAM = 5399
+_EPS = 1e-12
+
+
+def _check_number(key: float) -> int:
+    n = round(key)
+    if abs(key - n) > 1e-6 or not 1 <= n <= MAX_PARAM:
+        raise BlockError("E-PARAM", f"parameter number {key:g} is not an integer in 1..{MAX_PARAM}")
+    return n
+
+
+def param_key(key, params: dict) -> int | str:
+    """The table key of a parameter reference: an int 1..5399 or a name."""
+    if isinstance(key, str):
+        return key
+    if not isinstance(key, (int, float)):
+        key = evaluate(key, params)
+    return _check_number(key)
+
+
+def read_param(key, params: dict) -> float:
+    k = param_key(key, params)
+    if k in params:
+        return params[k]
+    if isinstance(k, str):
+        raise BlockError("E-PARAM", f"named parameter #<{k}> is read before it is set")
+    return 0.0  # numbered parameters start at zero, as in RS274NGC
+
+
+def _unary(name: str, x: float) -> float:
+    if name == "abs":
+        return abs(x)
+    if name in ("acos", "asin"):
+        if not -1.0 <= x <= 1.0:
+            raise BlockError("E-EXPR", f"{name.upper()}[{x:g}]: argument outside -1..1")
+        return math.degrees(math.acos(x) if name == "acos" else math.asin(x))
+    if name in ("cos", "sin", "tan"):
+        return getattr(math, name)(math.radians(x))
+    if name == "exp":
+        try:
+            return math.exp(x)
+        except OverflowError:
+            raise BlockError("E-EXPR", f"EXP[{x:g}] overflows") from None
+    if name == "fix":
+        return float(math.floor(x))
+    if name == "fup":
+        return float(math.ceil(x))
+    if name == "ln":
+        if x <= 0.0:
+            raise BlockError("E-EXPR", f"LN[{x:g}]: argument not positive")
+        return math.log(x)
+    if name == "round":
+        return float(math.floor(x + 0.5))  # RS274NGC rounds halves up
+    if name == "sqrt":
+        if x < 0.0:
+            raise BlockError("E-EXPR", f"SQRT[{x:g}]: negative argument")
+        return math.sqrt(x)
+    raise BlockError("E-EXPR", f"unknown function {name.upper()}")
+
+
+def _binary(op: str, a: float, b: float) -> float:
+    if op == "+":
+        return a + b
+    if op == "-":
+        return a - b
+    if op == "*":
+        return a * b
+    if op == "/":
+        if b == 0.0:
+            raise BlockError("E-EXPR", "division by zero")
+        return a / b
+    if op == "mod":
+        if b == 0.0:
+            raise BlockError("E-EXPR", "MOD by zero")
+        return math.fmod(a, b) if math.fmod(a, b) * b >= 0 else math.fmod(a, b) + b
+    if op == "**":
+        try:
+            r = a ** b
+        except (OverflowError, ZeroDivisionError):
+            raise BlockError("E-EXPR", f"{a:g}**{b:g} has no value") from None
+        if isinstance(r, complex):
+            raise BlockError("E-EXPR", f"{a:g}**{b:g}: negative base with a fractional power")
+        return float(r)
+    if op == "and":
+        return float(a != 0.0 and b != 0.0)
+    if op == "or":
+        return float(a != 0.0 or b != 0.0)
+    if op == "xor":
+        return float((a != 0.0) != (b != 0.0))
+    cmp = {"eq": abs(a - b) < _EPS, "ne": abs(a - b) >= _EPS, "gt": a > b, "ge": a >= b,
+           "lt": a < b, "le": a <= b}
+    return float(cmp[op])
+
+
+def evaluate(node, params: dict) -> float:
+    """The value of an expression tree; raises BlockError(E-EXPR / E-PARAM)."""
+    if isinstance(node, float):
+        return node
+    head = node[0]
+    if head == "#":
+        return read_param(node[1], params)
+    if head == "neg":
+        return -evaluate(node[1], params)
+    if head == "atan":
+        return math.degrees(math.atan2(evaluate(node[1], params), evaluate(node[2], params)))
+    if len(node) == 2:
+        return _unary(head, evaluate(node[1], params))
+    value = _binary(head, evaluate(node[1], params), evaluate(node[2], params))
+    if not math.isfinite(value):
+        raise BlockError("E-EXPR", "expression overflows")
+    return value

@@ -1,0 +1,371 @@
+"""Execute blocks against the modal state: text lines in, entities out.
+
+Per line: ipr.syntax gives the words (through the shape cache for simple lines),
+ipr.block checks them against the modal groups (cached per signature), and the block
+is executed on a staged view of the state, committed only if nothing failed. Plain
+G0/G1 blocks (axis words, F, N only) take a short path with the same checks.
+"""
+from __future__ import annotations
+
+from ipr import nurbs_blocks
+from ipr.arcs import make_arc
+from ipr.block import AXES, BlockSpec, analyse
+from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Diagnostic, Dwell, GCodeError, Line,
+                          Message, PathControl, ProgramEnd, Rapid, Spindle, Stop, ToolChange)
+from ipr.errors import BlockError
+from ipr.expressions import evaluate, param_key
+from ipr.modal import INCH_MM, ModalState, Setup, Staged
+from ipr.syntax import LineSyntaxError, parse_line_columns, split_line
+
+_PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
+
+
+def target(st, spec: BlockSpec, vals, base, machine: bool = False):
+    """End point of the block's axis words from `base` (machine mm), as the distance mode says."""
+    end = list(base)
+    unit = st.unit
+    if machine:
+        for k, i in spec.axis_idx:
+            end[k] = vals[i] * unit
+    elif st.absolute:
+        off = st.offset
+        for k, i in spec.axis_idx:
+            end[k] = vals[i] * unit + off[k]
+    else:
+        for k, i in spec.axis_idx:
+            end[k] = base[k] + vals[i] * unit
+    return tuple(end)
+
+
+class Interpreter:
+    """Feeds lines one at a time; `out` receives entities, `diagnostics` errors,
+    `warnings` warnings and notices. Raises GCodeError at the first error unless
+    `all_errors`."""
+
+    def __init__(self, file: str = "<string>", setup: Setup | None = None, all_errors: bool = False):
+        self.file = file
+        self.setup = setup or Setup()
+        self.all_errors = all_errors
+        self.state = ModalState(self.setup)
+        self.out: list = []
+        self.diagnostics: list[Diagnostic] = []
+        self.warnings: list[Diagnostic] = []
+        self._specs: dict = {}
+        self._percents = 0
+        self.done = False
+
+    # ---- errors -------------------------------------------------------------------
+    def _fail(self, err: BlockError, line: int, text: str) -> None:
+        col = err.col
+        if col is None:
+            col = 1
+            if err.word is not None:
+                try:
+                    col = parse_line_columns(text)[1][err.word]
+                except (LineSyntaxError, IndexError):
+                    col = 1
+        diag = Diagnostic(self.file, err.line or line, col, err.code, err.message)
+        self.diagnostics.append(diag)
+        if not self.all_errors:
+            raise GCodeError([diag])
+
+    def _notice(self, code: str, message: str, line: int, text: str, word: int | None,
+                severity: str = "notice") -> None:
+        col = 1
+        if word is not None:
+            col = parse_line_columns(text)[1][word]
+        self.warnings.append(Diagnostic(self.file, line, col, code, message, severity))
+
+    # ---- lines --------------------------------------------------------------------
+    def feed(self, line: int, text: str) -> None:
+        if self.done:
+            return
+        tpl, nums = split_line(text)
+        try:
+            if tpl is not None:
+                if not tpl.letters or tpl.delete and self.setup.block_delete:
+                    return
+                spec = self._specs.get(tpl.key)
+                if spec is None:
+                    spec = self._specs[tpl.key] = analyse(tuple(
+                        (l, f) for l, f in zip(tpl.letters, tpl.fixed)))
+                    if len(self._specs) > 4096:
+                        self._specs.clear()
+                if spec.__class__ is BlockError:
+                    raise spec
+                vals = list(tpl.fixed)
+                for i, s in zip(tpl.slots, nums):
+                    vals[i] = float(s)
+                if spec.linear and self.state.nurbs is None:
+                    self._linear(spec, vals, line)
+                else:
+                    self._execute(spec, vals, (), (), line, text)
+                return
+            try:
+                block, _ = parse_line_columns(text)
+            except LineSyntaxError as e:
+                raise BlockError("E-SYNTAX", e.message, col=e.col) from None
+            if block.percent:
+                self._percents += 1
+                self.done = self._percents == 2  # the second % ends the program
+                return
+            if block.delete and self.setup.block_delete:
+                return
+            params = self.state.params
+            vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
+            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+            spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
+            if spec.__class__ is BlockError:
+                raise spec
+            self._execute(spec, vals, assigns, block.messages, line, text)
+        except BlockError as err:
+            self._fail(err, line, text)
+
+    def _eval(self, node, word: int) -> float:
+        try:
+            return evaluate(node, self.state.params)
+        except BlockError as err:
+            err.word = word
+            raise
+
+    def finish(self, last_line: int) -> None:
+        """End of input: an open NURBS group is an error."""
+        group = self.state.nurbs
+        if group is not None:
+            self.state.nurbs = None
+            self._fail(BlockError("E-NURBS-INCOMPLETE", f"{group.name} group begun here is incomplete at "
+                                  f"the end of the program (line {last_line})", col=1, line=group.line),
+                       group.line, "")
+
+    # ---- the short path: G0/G1 with axis words, F, N ---------------------------------
+    def _linear(self, spec: BlockSpec, vals: list, line: int) -> None:
+        s = self.state
+        err = spec.check_usage(s.motion)
+        if err is not None:
+            raise err
+        motion = spec.motion if spec.motion is not None else s.motion
+        if motion != 10 and motion != 0:
+            return self._execute(spec, vals, (), (), line, "")
+        feed_value = s.feed_value
+        fi = spec.f_index
+        if fi is not None:
+            feed_value = vals[fi]
+            if feed_value < 0.0:
+                raise BlockError("E-VALUE", f"negative feed rate F{feed_value:g}", fi)
+        if spec.axis_idx:
+            end = target(s, spec, vals, s.pos)
+            if motion == 10:
+                feed_mm_s = feed_value * s.unit / 60.0
+                if feed_mm_s <= 0.0:
+                    raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
+                                     spec.index[spec.axes[0]])
+                self.out.append(Line(line, s.pos, end, feed_mm_s, s.path))
+            else:
+                self.out.append(Rapid(line, s.pos, end, s.path))
+            s.pos = end
+        s.feed_value = feed_value
+        s.motion = motion
+
+    # ---- the general path ---------------------------------------------------------
+    def _execute(self, spec: BlockSpec, vals: list, assigns, messages, line: int, text: str) -> None:
+        base = self.state
+        err = spec.check_usage(base.motion)
+        if err is not None:
+            raise err
+        st = Staged(base)
+        out: list = [Message(line, m) for m in messages]
+        notices: list = []
+        idx, g, m = spec.index, spec.g, spec.m
+        if base.nurbs is not None and spec.index.keys() | g.keys() | m.keys():
+            if g.get("motion", base.nurbs.kind) in (base.nurbs.kind, 53):
+                nurbs = nurbs_blocks.continue_group(st, spec, vals, target)
+                if nurbs is not None:
+                    out.append(nurbs)
+                return self._commit(st, out, notices, assigns, line, text)
+            group = base.nurbs
+            base.nurbs = None  # the group is dropped; this block then runs on its own
+            self._fail(BlockError("E-NURBS-INCOMPLETE", f"{group.name} group begun here is incomplete: "
+                                  f"line {line} starts another motion", col=1, line=group.line),
+                       group.line, "")
+            return self._execute(spec, vals, assigns, messages, line, text)
+        if "F" in idx:
+            if vals[idx["F"]] < 0.0:
+                raise BlockError("E-VALUE", f"negative feed rate F{vals[idx['F']]:g}", idx["F"])
+            st.feed_value = vals[idx["F"]]
+        self._spindle_tool(st, spec, vals, out, notices, line)
+        if g.get("nonmodal") == 40:
+            p = vals[idx["P"]]
+            if p < 0.0:
+                raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
+            out.append(Dwell(line, p))
+        self._modes(st, spec, vals, notices)
+        nonmodal = g.get("nonmodal")
+        if nonmodal == 920:
+            pos, unit, gg = st.pos, st.unit, list(st.g92)
+            for k, i in spec.axis_idx:
+                gg[k] = pos[k] - st.coord_offset[k] - (st.tool_offset if k == 2 else 0.0) - vals[i] * unit
+            st.g92 = tuple(gg)
+            st.set_offsets()
+        elif nonmodal == 921:
+            st.g92 = (0.0, 0.0, 0.0)
+            st.set_offsets()
+        if "motion" in g:
+            st.motion = g["motion"]
+        if spec.moves(base.motion) and nonmodal != 920:
+            self._motion(st, spec, vals, out, notices, line)
+        stop = m.get("stop")
+        if stop is not None:
+            out.append(ProgramEnd(line) if stop in (20, 300) else Stop(line, optional=stop == 10))
+            if stop in (20, 300):
+                st.ended = True
+        self._commit(st, out, notices, assigns, line, text)
+
+    def _commit(self, st: Staged, out, notices, assigns, line: int, text: str) -> None:
+        st.commit()
+        if assigns:
+            self.state.params.update(assigns)
+        self.out.extend(out)
+        for code, message, word in notices:
+            self._notice(code, message, line, text, word, "warning" if code.startswith("W") else "notice")
+        if self.state.ended:
+            self.done = True
+
+    def _spindle_tool(self, st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
+        idx, m = spec.index, spec.m
+        if "S" in idx:
+            rpm = vals[idx["S"]]
+            if rpm < 0.0:
+                raise BlockError("E-VALUE", f"negative spindle speed S{rpm:g}", idx["S"])
+            st.spindle_rpm = rpm
+        if "T" in idx:
+            st.tool_selected = _whole(vals[idx["T"]], "T", idx["T"])
+        if m.get("toolchange") == 60:
+            tool = st.tool_selected
+            if tool is None:
+                raise BlockError("E-WORD-MISSING", "M6 needs a T word (no tool selected)", spec.where["toolchange"])
+            if tool and tool not in self.setup.tool_lengths_mm:
+                notices.append(("W-TOOL-UNKNOWN", f"tool T{tool} is not in the tool table", idx.get("T")))
+            st.tool_in_spindle = tool
+            out.append(ToolChange(line, tool))
+        spindle = m.get("spindle")
+        if spindle is not None:
+            st.spindle_dir = {30: "cw", 40: "ccw", 50: None}[spindle]
+        if spindle is not None or ("S" in idx and st.spindle_dir is not None):
+            out.append(Spindle(line, st.spindle_rpm, st.spindle_dir))
+        coolant = m.get("coolant")
+        if coolant is not None:
+            st.mist = coolant == 70 or (st.mist and coolant != 90)
+            st.flood = coolant == 80 or (st.flood and coolant != 90)
+            out.append(Coolant(line, st.mist, st.flood))
+
+    def _modes(self, st: Staged, spec: BlockSpec, vals, notices) -> None:
+        g, idx = spec.g, spec.index
+        if "plane" in g:
+            st.plane = _PLANES[g["plane"]]
+        if "units" in g:
+            st.unit = INCH_MM if g["units"] == 200 else 1.0
+        tl = g.get("tool_length")
+        if tl == 430:
+            h = _whole(vals[idx["H"]], "H", idx["H"]) if "H" in idx else st.tool_in_spindle
+            length = 0.0
+            if h:
+                if h in self.setup.tool_lengths_mm:
+                    length = float(self.setup.tool_lengths_mm[h])
+                else:
+                    notices.append(("W-TOOL-UNKNOWN", f"tool H{h} is not in the tool table: zero "
+                                    "length offset", idx.get("H")))
+            st.tool_offset = length
+            st.set_offsets()
+        elif tl == 490:
+            st.tool_offset = 0.0
+            st.set_offsets()
+        if "coord" in g:
+            st.coord = g["coord"]
+            st.coord_offset = self.setup.work_offset(g["coord"])
+            st.set_offsets()
+        path = g.get("path")
+        if path == 610:
+            st.path = EXACT_STOP
+        elif path == 640:
+            tol = [None, None]
+            for j, letter in enumerate("PQ"):
+                if letter in idx:
+                    v = vals[idx[letter]]
+                    if v < 0.0:
+                        raise BlockError("E-VALUE", f"negative G64 tolerance {letter}{v:g}", idx[letter])
+                    tol[j] = v * st.unit
+            st.path = PathControl(False, tol[0], tol[1])
+        d = g.get("distance")
+        if d is not None:
+            st.absolute = d == 900
+        ad = g.get("arc_distance")
+        if ad is not None:
+            st.arc_absolute = ad == 901
+
+    def _motion(self, st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
+        motion = st.motion
+        g53 = spec.g.get("nonmodal") == 530
+        if g53 and not st.absolute:
+            raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
+        if motion in (52, 62):
+            return nurbs_blocks.start_group(st, spec, vals, line, target, notices)
+        if motion == 53:
+            raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
+        end = target(st, spec, vals, st.pos, machine=g53)
+        if motion == 0:
+            out.append(Rapid(line, st.pos, end, st.path))
+        else:
+            feed_mm_s = st.feed_value * st.unit / 60.0
+            if feed_mm_s <= 0.0:
+                word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
+                raise BlockError("E-FEED-ZERO", f"feed move with feed rate zero (program an F word)", word)
+            if motion == 10:
+                out.append(Line(line, st.pos, end, feed_mm_s, st.path))
+            else:
+                out.append(self._arc(st, spec, vals, end, feed_mm_s, line))
+        st.pos = end
+
+    def _arc(self, st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int):
+        idx, plane = spec.index, st.plane
+        a, b, n = PLANE_AXES[plane]
+        where = spec.where.get("motion")
+        offs = [letter for letter in "IJK" if letter in idx]
+        normal_offset = "IJK"[n]
+        if "R" in idx and offs:
+            raise BlockError("E-ARC-FORMAT", "arc with both R and I/J/K", idx["R"])
+        if normal_offset in idx:
+            raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
+        turns = 0
+        if "P" in idx:
+            p = vals[idx["P"]]
+            if p != round(p) or p < 1:
+                raise BlockError("E-VALUE", f"arc turns P{p:g} must be a whole number >= 1", idx["P"])
+            turns = int(p) - 1
+        ccw = st.motion == 30
+        if "R" in idx:
+            if AXES[a] not in idx and AXES[b] not in idx:
+                raise BlockError("E-ARC-FORMAT", f"radius-format arc needs {AXES[a]} or {AXES[b]}", idx["R"])
+            return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path,
+                            radius_mm=vals[idx["R"]] * st.unit, turns=turns, word=idx["R"], unit_mm=st.unit)
+        if not offs:
+            raise BlockError("E-ARC-FORMAT", "arc needs R or I/J/K", where)
+        unit = st.unit
+        ia, ib = "IJK"[a], "IJK"[b]
+        if st.arc_absolute:
+            for letter in (ia, ib):
+                if letter not in idx:
+                    raise BlockError("E-ARC-FORMAT", f"{letter} word missing in an absolute-centre (G90.1) arc",
+                                     where)
+            off = st.offset
+            center = (vals[idx[ia]] * unit + off[a], vals[idx[ib]] * unit + off[b])
+        else:
+            center = (st.pos[a] + (vals[idx[ia]] * unit if ia in idx else 0.0),
+                      st.pos[b] + (vals[idx[ib]] * unit if ib in idx else 0.0))
+        return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path, center_ab=center, turns=turns,
+                        word=idx[offs[0]], unit_mm=unit)
+
+
+def _whole(value: float, letter: str, word: int) -> int:
+    if value != round(value) or value < 0:
+        raise BlockError("E-VALUE", f"{letter}{value:g} must be a whole number >= 0", word)
+    return int(value)

@@ -1,0 +1,99 @@
+"""The interpreter's modal state, the machine set-up it reads, and block staging.
+
+A block is executed against a `Staged` view of the state: reads fall through to the
+state, writes are kept aside and applied by `commit()` only when the whole block has
+been accepted (grbl's discipline: an erroneous block changes nothing). Values are
+replaced, never mutated in place (positions are tuples).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ipr.entities import CONTINUOUS, PathControl
+
+INCH_MM = 25.4
+ZERO3 = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What the interpreter needs from the machine configuration.
+
+    work_offsets_mm: "G54".."G59" -> (x, y, z) machine position of the work zero
+    (missing = zero). tool_lengths_mm: tool number -> length for G43 H (missing: a
+    warning and a zero offset). block_delete: skip lines starting with "/".
+    """
+
+    work_offsets_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    tool_lengths_mm: dict[int, float] = field(default_factory=dict)
+    block_delete: bool = True
+
+    def work_offset(self, code10: int) -> tuple[float, float, float]:
+        name = f"G{code10 // 10}"
+        return tuple(float(v) for v in self.work_offsets_mm.get(name, ZERO3))
+
+
+class ModalState:
+    """Everything a block may read or change. Positions are machine mm.
+
+    `offset` is the sum program -> machine: work offset + G92 offset + tool length (Z).
+    `feed_value` is the F number as programmed: like RS274NGC, it is read in the units
+    active when a move uses it.
+    """
+
+    __slots__ = ("pos", "unit", "absolute", "arc_absolute", "plane", "motion", "feed_value",
+                 "path", "coord", "coord_offset", "g92", "tool_offset", "offset", "tool_selected",
+                 "tool_in_spindle", "spindle_rpm", "spindle_dir", "mist", "flood", "nurbs",
+                 "params", "ended")
+
+    def __init__(self, setup: Setup):
+        self.pos = ZERO3
+        self.unit = 1.0
+        self.absolute = True
+        self.arc_absolute = False
+        self.plane = "XY"
+        self.motion: int | None = None
+        self.feed_value = 0.0
+        self.path: PathControl = CONTINUOUS
+        self.coord = 540
+        self.coord_offset = setup.work_offset(540)
+        self.g92 = ZERO3
+        self.tool_offset = 0.0
+        self.offset = self.coord_offset
+        self.tool_selected: int | None = None
+        self.tool_in_spindle = 0
+        self.spindle_rpm = 0.0
+        self.spindle_dir: str | None = None
+        self.mist = False
+        self.flood = False
+        self.nurbs = None
+        self.params: dict = {}
+        self.ended = False
+
+
+class Staged:
+    """A write-aside view of a ModalState for one block."""
+
+    def __init__(self, base: ModalState):
+        object.__setattr__(self, "_base", base)
+        object.__setattr__(self, "_upd", {})
+        object.__setattr__(self, "after_commit", [])
+
+    def __getattr__(self, name):
+        upd = self._upd
+        return upd[name] if name in upd else getattr(self._base, name)
+
+    def __setattr__(self, name, value):
+        self._upd[name] = value
+
+    def set_offsets(self) -> None:
+        """Recompute the combined program -> machine offset after a change of its parts."""
+        c, g = self.coord_offset, self.g92
+        self.offset = (c[0] + g[0], c[1] + g[1], c[2] + g[2] + self.tool_offset)
+
+    def commit(self) -> None:
+        base = self._base
+        for name, value in self._upd.items():
+            setattr(base, name, value)
+        for action in self.after_commit:
+            action()
