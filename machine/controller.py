@@ -91,7 +91,7 @@ class Controller:
     def __init__(self, config, *, method: str | None = None, feed_override: float = 1.0, sinks=(),
                  optional_stop: bool = False,
                  on_program_stop: Callable[[Stop], bool] = lambda stop: True,
-                 on_event: Callable[[object], None] = lambda event: None):
+                 on_event: Callable[[object], None] = lambda event: None, planner=None):
         if not feed_override > 0:
             raise ValueError(f"feed override must be > 0 % (got {feed_override * 100:g} %)")
         self.config = config
@@ -102,6 +102,7 @@ class Controller:
         self.on_program_stop = on_program_stop
         self.on_event = on_event
         self.limits = DriveLimits.from_config(config)
+        self.planner = planner  # plan_periods's signature; None = ipo.feed.plan_periods
         self.check_s = 0.0
 
     def check(self, path: str | Path) -> Program:
@@ -133,8 +134,9 @@ class Controller:
 
     def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
-        from ipo.feed import plan_periods
-
+        if self.planner is None:
+            from ipo.feed import plan_periods
+            self.planner = plan_periods
         drive = self.make_drive(program)
         deliver = player.play if player is not None else drive.receive
         if player is not None:
@@ -142,7 +144,7 @@ class Controller:
         stops: list[int] = []
         messages: list[str] = []
         state, fault = "completed", None
-        stream = plan_periods(program.entities, self.config, method=self.method,
+        stream = self.planner(program.entities, self.config, method=self.method,
                               feed_override=self.feed_override, start_mm=start_position(program))
         t0 = time.perf_counter()
         try:

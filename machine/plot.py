@@ -108,7 +108,16 @@ def plot_trace(trace: Trace, out: str | Path, title: str = "") -> Path:
     ax_feed.set_xlabel("t s")
     ax_feed.set_ylabel("planned feed mm/s")
     ax_feed.set_title("feed and its limiting reason")
-    ax_feed.legend(loc="upper right", fontsize="small", ncols=4)
+    handles, labels = ax_feed.get_legend_handles_labels()
+    if "contour_um" in trace.columns:
+        ax_err = ax_feed.twinx()
+        tc, _, cmax = _envelope(t, trace["contour_um"])
+        ax_err.plot(tc, cmax, color="tab:red", lw=0.8)
+        ax_err.set_ylabel("contour error µm", color="tab:red")
+        ax_err.set_ylim(bottom=0)
+        handles.append(ax_err.lines[0])
+        labels.append("contour error (servo)")
+    ax_feed.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.06, 1.0), fontsize="small")
 
     for ax, data, key, what in ((ax_v, vel, "max_velocity_mm_s", "velocity mm/s"),
                                 (ax_a, acc, "max_accel_mm_s2", f"acceleration mm/s² ({h}-period stencil)")):

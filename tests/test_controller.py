@@ -159,3 +159,86 @@ def test_late_production_counts_deadline_misses():
     # every clock reading costs 20 ms: producing a 20 ms chunk takes 40 ms
     player, drive, _, _ = play(line_stream(length_mm=10.0), clock=FakeClock(per_call=0.02))
     assert 0 < player.deadline_misses <= drive.stats.periods
+
+
+# --- whole runs against a synthetic planner (the contract of ipo.feed.plan_periods) ---
+
+def fake_planner(items):
+    def planner(entities, config, *, method, feed_override, start_mm):
+        for item in items:
+            if isinstance(item, Exception) or (isinstance(item, type) and issubclass(item, BaseException)):
+                raise item
+            yield item
+    return planner
+
+
+def shifted(stream, line):
+    return [PeriodBatch(b.pos_mm, b.inc_blu, b.feed_mm_s, b.limit, np.full(len(b), line, np.int32))
+            for b in stream]
+
+
+def program_of(*entities):
+    from ipr.entities import Program
+    return Program("t.nc", list(entities))
+
+
+def controller(items, **kw):
+    from ipo.config import default_config
+    from machine.controller import Controller
+    return Controller(default_config(), planner=fake_planner(items), **kw)
+
+
+def test_run_handles_messages_stops_and_program_end():
+    from ipr.entities import Message, ProgramEnd, Stop
+    first, second = line_stream(10.0, size=100), line_stream(10.0, size=100)
+    rest = [PeriodBatch(b.pos_mm + [10, 5, 0], b.inc_blu, b.feed_mm_s, b.limit, b.line) for b in second]
+    items = (first + [Message(12, "check tool"), Stop(13, optional=True), Stop(14, optional=False)]
+             + rest + [ProgramEnd(20)] + line_stream(5.0))
+    asked, events = [], []
+    c = controller(items, on_program_stop=lambda s: asked.append(s.line) or True, on_event=events.append)
+    result = c.run(program_of(Line(11, (0, 0, 0), (20, 10, 0), 50.0)))
+    assert result.state == "completed" and result.line == 20
+    assert asked == [14] and result.program_stops == [14]  # M1 is skipped with the optional stop off
+    assert result.messages == ["line 12: check tool"] and len(events) == 1
+    assert result.periods == 400 and result.position_mm == pytest.approx([20, 10, 0])
+    assert result.cycle_time_s == pytest.approx(0.4)
+    assert result.path_length_mm == pytest.approx(math.hypot(20, 10), abs=1e-3)
+    assert result.deadline_misses is None and result.max_contour_error_um is None
+    assert result.summary()["blocks"] == 1
+
+
+def test_answering_stop_at_m0_ends_the_run_there():
+    from ipr.entities import Stop
+    items = line_stream(10.0, size=100) + [Stop(13, optional=False)] + line_stream(10.0)
+    result = controller(items, on_program_stop=lambda s: False).run(program_of(Line(11, (0, 0, 0), (1, 0, 0), 9)))
+    assert result.state == "stopped" and result.line == 13 and result.periods == 200
+
+
+def test_ctrl_c_stops_cleanly_and_says_where():
+    items = shifted(line_stream(10.0, size=50), 33)[:3] + [KeyboardInterrupt]
+    result = controller(items).run(program_of(Line(33, (0, 0, 0), (1, 0, 0), 9)))
+    assert result.state == "interrupted" and result.line == 33 and result.periods == 150
+    assert result.position_mm == pytest.approx([7.5, 3.75, 0.0])
+
+
+def test_a_travel_fault_during_the_run_is_reported_not_raised():
+    import dataclasses
+    from ipo.config import default_config
+    from machine.controller import Controller
+    cfg = default_config()
+    x = dataclasses.replace(cfg.axes[0], max_mm=5.0)
+    c = Controller(dataclasses.replace(cfg, axes=(x, cfg.axes[1], cfg.axes[2])),
+                   planner=fake_planner(shifted(line_stream(10.0), 8)))
+    result = c.run(program_of(Line(8, (0, 0, 0), (1, 0, 0), 9)))
+    assert result.state == "fault" and "line 8: X 5.0500 mm is above the travel limit 5.0000 mm" in result.fault
+    assert result.position_mm[0] == pytest.approx(5.0)
+
+
+def test_servo_model_from_the_machine_file_reports_contour_error():
+    import dataclasses
+    from ipo.config import Servo, default_config
+    from machine.controller import Controller
+    cfg = dataclasses.replace(default_config(), servo=Servo("lag", time_constant_s=0.01))
+    result = Controller(cfg, planner=fake_planner(line_stream(10.0))).run(program_of(Line(1, (0, 0, 0), (1, 0, 0), 9)))
+    # a straight line: the axes lag along it, never off it (up to the BLU rounding of the command)
+    assert result.max_contour_error_um is not None and result.max_contour_error_um < 1.0
