@@ -1,0 +1,131 @@
+"""`vcnc parse FILE [--json] [--all-errors]`: check a part program and show its entities.
+
+Exit 0 when the program is valid, 1 when it has errors (printed on stderr as
+`file:line:col: error[CODE]: message`). Warnings and notices go to stderr too.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+import click
+
+_KINDS = {"Rapid": "rapid", "Line": "line", "Arc": "arc", "Nurbs": "nurbs", "Dwell": "dwell"}
+
+
+def _arc_length_mm(arc) -> float:
+    from ipr.entities import PLANE_AXES
+
+    _, _, n = PLANE_AXES[arc.plane]
+    return math.hypot(arc.radius_mm * arc.sweep_rad, arc.end[n] - arc.start[n])
+
+
+def _nurbs_length_mm(nurbs) -> float:
+    from ipo.nurbs import arc_length
+
+    return arc_length(nurbs.degree, nurbs.knots, nurbs.weights, nurbs.points, rel_tol=1e-6)
+
+
+def _arc_points(arc, n: int = 65):
+    """Points along an arc (bounding box of the summary)."""
+    import numpy as np
+    from ipr.entities import PLANE_AXES
+
+    a, b, c = PLANE_AXES[arc.plane]
+    a0 = math.atan2(arc.start[b] - arc.center[b], arc.start[a] - arc.center[a])
+    t = np.linspace(0.0, 1.0, n)
+    ang = a0 + t * arc.sweep_rad
+    pts = np.empty((n, 3))
+    pts[:, a] = arc.center[a] + arc.radius_mm * np.cos(ang)
+    pts[:, b] = arc.center[b] + arc.radius_mm * np.sin(ang)
+    pts[:, c] = arc.start[c] + t * (arc.end[c] - arc.start[c])
+    return pts
+
+
+def path_length_mm(entity) -> float:
+    kind = type(entity).__name__
+    if kind in ("Rapid", "Line"):
+        return math.dist(entity.start, entity.end)
+    if kind == "Arc":
+        return _arc_length_mm(entity)
+    if kind == "Nurbs":
+        return _nurbs_length_mm(entity)
+    return 0.0
+
+
+def entity_json(entity, position) -> dict:
+    """One entity as issue 2 item 6 describes it; `position` stands in for a dwell's place."""
+    kind = _KINDS[type(entity).__name__]
+    feed = getattr(entity, "feed_mm_s", None)
+    start = list(getattr(entity, "start", position))
+    end = list(getattr(entity, "end", position))
+    obj = {"line": entity.line, "kind": kind, "start": start, "end": end,
+           "feed_mm_min": None if feed is None else feed * 60.0}
+    if kind == "arc":
+        obj.update(center=list(entity.center), plane=entity.plane, ccw=entity.ccw)
+    elif kind == "nurbs":
+        obj.update(degree=entity.degree, knots=entity.knots.tolist(), weights=entity.weights.tolist(),
+                   points=entity.points.tolist())
+    return obj
+
+
+def _summary(program) -> None:
+    import numpy as np
+    from rich.console import Console
+    from rich.table import Table
+
+    counts: dict[str, int] = {}
+    length = 0.0
+    corners = []
+    for e in program.entities:
+        kind = _KINDS.get(type(e).__name__)
+        if kind is None:
+            continue
+        counts[kind] = counts.get(kind, 0) + 1
+        length += path_length_mm(e)
+        if kind == "nurbs":
+            corners.append(e.points)
+        elif kind != "dwell":
+            corners.append(np.array([e.start, e.end]))
+            if kind == "arc":
+                corners.append(_arc_points(e))
+    table = Table(title=f"vcnc parse {program.file}", show_header=False)
+    table.add_column("figure", style="bold")
+    table.add_column("value", justify="right")
+    for kind in ("rapid", "line", "arc", "nurbs", "dwell"):
+        table.add_row(f"{kind} entities", str(counts.get(kind, 0)))
+    table.add_row("path length", f"{length:.3f} mm")
+    if corners:
+        pts = np.vstack(corners)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        table.add_row("bounding box min", "  ".join(f"{v:.3f}" for v in lo) + " mm")
+        table.add_row("bounding box max", "  ".join(f"{v:.3f}" for v in hi) + " mm")
+    Console().print(table)
+
+
+@click.command("parse")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="print the entities as a JSON array")
+@click.option("--all-errors", is_flag=True, help="report every error, not just the first")
+def command(file: str, as_json: bool, all_errors: bool) -> None:
+    """Check FILE and print its motion entities (or a summary)."""
+    from ipr import GCodeError, parse_file
+
+    try:
+        program = parse_file(file, all_errors=all_errors)
+    except GCodeError as err:
+        for diag in err.diagnostics:
+            click.echo(str(diag), err=True)
+        sys.exit(1)
+    for diag in program.warnings:
+        click.echo(str(diag), err=True)
+    if as_json:
+        items, position = [], (0.0, 0.0, 0.0)
+        for e in program.entities:
+            if type(e).__name__ in _KINDS:
+                items.append(entity_json(e, position))
+                position = tuple(items[-1]["end"])
+        click.echo(json.dumps(items))
+    else:
+        _summary(program)
