@@ -1,0 +1,363 @@
+"""The feed stage: entities in, per-period axis increments out.
+
+Pipeline per window of entities: pieces (ipo.pieces: lines, arcs, G64 corner blends,
+NURBS) -> samples (ipo.sampling) -> caps on v^2 from every limit (ipo.limits, 002's
+roughness limiter included) -> look-ahead profile (ipo.lookahead) -> time
+parameterisation at the interpolation period -> points (lines, arcs and blends evaluated
+exactly by arc length; a NURBS walked by its stepper from ipo.steppers with the target
+step v*T of each period) -> BLU increments (ipo.reference_word.quantise).
+
+Bounded memory: the planner holds a window that reaches one stopping distance beyond
+what it commits, and it emits the committed part chunk by chunk.
+
+Feed override. `plan_periods(..., feed_override=f)` plans every feed move at f times its
+programmed feed (rapids are not overridden; the other limits always hold). A real-time
+controller can change it while running: build a `FeedPlanner`, iterate `planner.run(
+entities)`, and call `planner.set_feed_override(f)` between batches; the periods not yet
+emitted are replanned from the machine's current speed (braking at the machine's limits
+if the new feed is lower), taking effect within one sample interval (<= 2 mm of path).
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+
+import numpy as np
+
+from ipo import lookahead as la
+from ipo.config import MachineConfig
+from ipo.limits import sample_caps
+from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
+from ipo.pieces import KIND_NURBS, Motion, Pieces, build, evaluate
+from ipo.reference_word import quantise
+from ipo.roughness import cusp_height_mm
+from ipo.sampling import Samples, nurbs_table, sample
+from ipo.nurbs_driver import NurbsDriver
+from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Coolant, Dwell, Message, Nurbs, ProgramEnd, Spindle, Stop, ToolChange
+
+# Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
+# between samples and is checked at the samples only.
+ACCEL_USE = 0.97
+VELOCITY_USE = 0.995
+_BUILD_CHUNK = 2048  # motions turned into pieces per call
+_START_TOL_MM = 1e-6
+
+
+class FeedPlanner:
+    """Streaming look-ahead planner; see the module docstring."""
+
+    def __init__(self, config: MachineConfig, *, method: str | None = None, feed_override: float = 1.0,
+                 start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096):
+        if not batch_periods >= 1:
+            raise ValueError(f"batch_periods must be >= 1, got {batch_periods}")
+        self.cfg = config
+        self.method = method or config.method
+        self.set_feed_override(feed_override)
+        self.batch_periods = int(batch_periods)
+        self.T = config.period_s
+        self.v_max = np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE
+        self.a_max = np.array([a.max_accel_mm_s2 for a in config.axes]) * ACCEL_USE
+        self.pos = np.array(start_mm, dtype=float)
+        self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
+        # look-ahead state: pieces and samples not yet emitted, and where the machine is
+        self._motions: list[Motion] = []
+        self._trim = 0.0
+        self._pieces: Pieces | None = None
+        self._piece_base = 0  # global index of self._pieces[0]
+        self._pstart = np.zeros(0)  # global arc length where each held piece starts
+        self._smp: Samples | None = None
+        self._cap = np.zeros(0)
+        self._reason = np.zeros(0, np.int8)
+        self._x0 = 0.0  # v^2 at the first held sample
+        self._s_end = 0.0  # arc length at the end of everything built
+        self._phase = self.T  # time from the first held sample to the next period end
+        self._events: list[tuple[float, object]] = []
+        self._nurbs: dict[int, NurbsDriver] = {}
+        self._n_nurbs = 0
+        self._rpm = 0.0
+        self._finishing = _finishing_params(config)
+        self._v_top = float(np.linalg.norm(self.v_max))
+        self._stop_dist = self._v_top**2 / (2 * self.a_max.min()) + 1e-3
+
+    def set_feed_override(self, factor: float) -> None:
+        """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
+        if not (np.isfinite(factor) and factor > 0):
+            raise ValueError(f"feed override must be a finite factor > 0, got {factor!r}")
+        self._override = float(factor)
+        self._override_changed = True
+
+    # ---- entity intake -------------------------------------------------------------
+    def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
+        """Period batches and events in order; the machine ends standing still."""
+        for e in entities:
+            if isinstance(e, MOTION_TYPES):
+                self._take_motion(e)
+                if len(self._motions) > _BUILD_CHUNK:
+                    self._build(final=False)
+                    yield from self._plan(final=False)
+            elif isinstance(e, (Spindle, Coolant, Message)):
+                self._build_pending_event(e)
+                if isinstance(e, Spindle):
+                    self._rpm = e.rpm if e.direction is not None else 0.0
+            elif isinstance(e, Dwell):
+                yield from self._flush()
+                yield from self._stand(e.seconds, e.line)
+            elif isinstance(e, (Stop, ToolChange, ProgramEnd)):
+                yield from self._flush()
+                yield e
+                if isinstance(e, ProgramEnd):
+                    return
+            else:
+                raise TypeError(f"the feed stage cannot handle {type(e).__name__}")
+        yield from self._flush()
+
+    def _take_motion(self, e) -> None:
+        if not self._motions and self._smp is None:
+            if np.max(np.abs(np.array(e.start) - self.pos)) > _START_TOL_MM:
+                raise ValueError(f"line {e.line}: motion starts at {list(e.start)} but the machine "
+                                 f"stands at {self.pos.tolist()}")
+        idx = -1
+        if isinstance(e, Nurbs):
+            idx = self._n_nurbs
+            self._n_nurbs += 1
+            self._nurbs[idx] = NurbsDriver(e, nurbs_table(e), self.method)
+        self._motions.append(Motion(e, self._rpm, idx))
+
+    def _build_pending_event(self, e) -> None:
+        """An event happens where the motions read so far end: at the end of the held-back
+        motion (its end corner is not known yet, so the point is its programmed end)."""
+        s_ev = self._s_end
+        if self._motions:
+            self._build(final=False)
+            s_ev = self._s_end + _own_length(self._motions[0], self._nurbs) - self._trim
+        self._events.append((s_ev, e))
+
+    def _flush(self) -> Iterator:
+        if self._motions:
+            self._build(final=True)
+        if self._smp is not None:
+            yield from self._plan(final=True)
+        for _, ev in self._events:
+            yield ev
+        self._events.clear()
+
+    # ---- pieces and samples ----------------------------------------------------------
+    def _build(self, *, final: bool) -> None:
+        """Turn the pending motions into pieces and samples (all but the last unless final)."""
+        motions = self._motions
+        if len(motions) < 2 and not final:
+            return
+        pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
+                         blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
+                         nurbs_length=lambda i: self._nurbs[i].table.length)
+        if final:
+            self._motions = []
+        else:
+            self._motions = [motions[-1]]
+            self._trim = trim
+        self._append(pc)
+
+    def _append(self, pc: Pieces) -> None:
+        if len(pc) == 0:
+            return
+        tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind == KIND_NURBS]}
+        smp = sample(pc, self._s_end, tables)
+        if self._pieces is None:
+            base = self._piece_base
+            self._pieces = pc
+            self._pstart = self._s_end + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
+        else:
+            base = self._piece_base + len(self._pieces)
+            self._pieces = Pieces.concat([self._pieces, pc])
+            self._pstart = np.concatenate([self._pstart, self._s_end + np.concatenate(
+                [[0.0], np.cumsum(pc.length)[:-1]])])
+        smp.piece += base
+        local = self._pieces
+        if self._smp is None:
+            cap, reason = self._caps(smp, local)
+            self._smp, self._cap, self._reason = smp, cap, reason
+        else:
+            joined = Samples.concat([self._smp.tail(len(self._smp) - 1), smp])
+            cap, reason = self._caps(joined, local)
+            keep = cap[0] < self._cap[-1]
+            if keep:
+                self._cap[-1], self._reason[-1] = cap[0], reason[0]
+            self._smp = Samples.concat([self._smp, smp])
+            self._cap = np.concatenate([self._cap, cap[1:]])
+            self._reason = np.concatenate([self._reason, reason[1:]])
+        self._s_end += float(pc.length.sum())
+
+    def _caps(self, smp: Samples, pc: Pieces):
+        rel = Samples(smp.s, smp.t, smp.kv, smp.piece - self._piece_base, smp.sigma)
+        return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing)
+
+    # ---- look-ahead and emission -----------------------------------------------------
+    def _soft_caps(self) -> tuple[np.ndarray, np.ndarray]:
+        loc = self._smp.piece - self._piece_base
+        feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
+        xf = feed**2
+        prog = xf < self._cap
+        return np.where(prog, xf, self._cap), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
+
+    def _plan(self, *, final: bool) -> Iterator:
+        while self._smp is not None and len(self._smp) > 1:
+            self._override_changed = False
+            smp = self._smp
+            cap, reason = self._soft_caps()
+            x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, self._x0, 0.0)
+            if final:
+                c = len(smp) - 1
+            else:
+                c = int(np.searchsorted(smp.s, self._s_end - self._stop_dist, side="right")) - 1
+                if c < 1:
+                    return
+            yield from self._emit(c, x, cap, reason, stop=final)
+            if not self._override_changed and not final:
+                return
+        if final and self._smp is not None and len(self._smp) <= 1:
+            self._reset_window()
+
+    def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
+        """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
+        smp = self._smp
+        s, xs = smp.s[:c + 1], x[:c + 1]
+        tc = la.sample_times(s, xs)
+        seg_reason = np.where(np.minimum(xs[:-1], xs[1:]) >= 0.999 * np.minimum(cap[:c], cap[1:c + 1]),
+                              reason[:c], LIMIT_ACCEL).astype(np.int8)
+        t_next = self._phase
+        s_prev = s[0]
+        k_stop = c
+        while True:
+            fit = int(np.floor((tc[-1] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[-1] + 1e-12 else 0
+            n = min(fit, self.batch_periods)
+            times = t_next + self.T * np.arange(n)
+            last = times[-1] if n else t_next - self.T
+            exact_stop = stop and n == fit and tc[-1] - last > 1e-12
+            if exact_stop:
+                times = np.append(times, tc[-1])  # the stop is reached exactly at a period's end
+            if len(times) == 0:
+                break
+            sv, kseg = la.positions_at(np.minimum(times, tc[-1]), s, xs, tc)
+            if exact_stop:
+                sv[-1] = s[-1]
+            yield from self._batch(sv, s_prev, seg_reason[kseg])
+            s_prev = sv[-1]
+            t_next = times[-1] + self.T
+            if n == fit:
+                break
+            if self._override_changed:
+                # finish the current sample interval on the old plan, then replan from there
+                k_stop = min(int(kseg[-1]) + 1, c)
+                more = int(np.floor((tc[k_stop] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[k_stop] else 0
+                if more:
+                    times = t_next + self.T * np.arange(more)
+                    sv, kseg = la.positions_at(times, s, xs, tc)
+                    yield from self._batch(sv, s_prev, seg_reason[kseg])
+                    t_next = times[-1] + self.T
+                break
+        self._phase = t_next - tc[k_stop]
+        self._x0 = float(xs[k_stop])
+        self._drop(k_stop)
+        if stop and k_stop == c:
+            self._phase = self.T
+
+    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray) -> Iterator:
+        """Points at arc lengths sv, quantised; split where events sit."""
+        loc = np.clip(np.searchsorted(self._pstart, sv, side="right") - 1, 0, len(self._pstart) - 1)
+        # a period ending exactly on a piece boundary belongs to the piece it completes
+        on_edge = (loc > 0) & (sv <= self._pstart[loc] + 1e-12)
+        loc = loc - on_edge
+        sigma = np.clip(sv - self._pstart[loc], 0.0, self._pieces.length[loc])
+        pos = evaluate(self._pieces, loc, sigma)
+        nurbs = self._pieces.kind[loc] == KIND_NURBS
+        if nurbs.any():
+            self._nurbs_points(pos, loc, sv, s_prev, nurbs)
+        feed = np.diff(sv, prepend=s_prev) / self.T
+        line = self._pieces.line[loc]
+        inc, end = quantise(pos, self.cfg.blu_mm, self.blu)
+        qpos = (self.blu + np.cumsum(inc, axis=0)) * self.cfg.blu_mm
+        self.blu = end
+        self.pos = pos[-1].copy()
+        cut = 0
+        while self._events and self._events[0][0] <= sv[-1] + 1e-9:
+            s_ev, ev = self._events.pop(0)
+            j = int(np.searchsorted(sv, s_ev - 1e-9, side="left")) + 1
+            j = min(max(j, cut), len(sv))
+            if j > cut:
+                yield PeriodBatch(qpos[cut:j], inc[cut:j], feed[cut:j], limit[cut:j], line[cut:j])
+            cut = j
+            yield ev
+        if cut < len(sv):
+            yield PeriodBatch(qpos[cut:], inc[cut:], feed[cut:], limit[cut:], line[cut:])
+
+    def _nurbs_points(self, pos, loc, sv, s_prev, mask) -> None:
+        idx = np.nonzero(mask)[0]
+        runs = np.split(idx, np.nonzero(np.diff(idx) != 1)[0] + 1)
+        for run in runs:
+            p = int(loc[run[0]])
+            if not np.all(loc[run] == p):
+                sub = np.split(run, np.nonzero(np.diff(loc[run]) != 0)[0] + 1)
+            else:
+                sub = [run]
+            for r in sub:
+                p = int(loc[r[0]])
+                before = sv[r[0] - 1] if r[0] > 0 else s_prev
+                drv = self._nurbs[int(self._pieces.nurbs[p])]
+                pos[r] = drv.points(sv[r] - self._pstart[p], before - self._pstart[p])
+
+    def _drop(self, k: int) -> None:
+        """Forget samples before k and the pieces no sample refers to any more."""
+        self._smp = self._smp.tail(k)
+        self._cap, self._reason = self._cap[k:], self._reason[k:]
+        first = int(self._smp.piece[0]) - self._piece_base
+        if first > 0:
+            for i in np.unique(self._pieces.nurbs[:first]):
+                if i >= 0 and i not in set(self._pieces.nurbs[first:].tolist()):
+                    self._nurbs.pop(int(i), None)
+            self._pieces = self._pieces.take(slice(first, None))
+            self._pstart = self._pstart[first:]
+            self._piece_base += first
+
+    def _reset_window(self) -> None:
+        if self._pieces is not None:
+            self._piece_base += len(self._pieces)
+        self._pieces, self._smp = None, None
+        self._pstart = np.zeros(0)
+        self._cap, self._reason = np.zeros(0), np.zeros(0, np.int8)
+        self._x0 = 0.0
+
+    def _stand(self, seconds: float, line: int) -> Iterator[PeriodBatch]:
+        n = int(round(seconds / self.T))
+        while n > 0:
+            k = min(n, self.batch_periods)
+            qpos = np.repeat((self.blu * self.cfg.blu_mm)[None, :], k, axis=0)
+            yield PeriodBatch(qpos, np.zeros((k, 3), np.int64), np.zeros(k),
+                              np.full(k, LIMIT_DWELL, np.int8), np.full(k, line, np.int32))
+            n -= k
+
+
+def _own_length(m: Motion, nurbs: dict) -> float:
+    e = m.entity
+    if isinstance(e, Nurbs):
+        return nurbs[m.nurbs_index].table.length
+    if isinstance(e, Arc):
+        a, b, n = PLANE_AXES[e.plane]
+        return float(np.hypot(e.radius_mm * abs(e.sweep_rad), e.end[n] - e.start[n]))
+    return float(np.linalg.norm(np.subtract(e.end, e.start)))
+
+
+def _finishing_params(cfg: MachineConfig):
+    fin = cfg.finishing
+    if fin is None:
+        return None
+    tool = cfg.tools[fin.tool]
+    target = (cusp_height_mm(tool.ball_radius_mm, fin.pick_feed_mm) if fin.roughness_target_um == "isotropic"
+              else fin.roughness_target_um * 1e-3)
+    return tool.ball_radius_mm, fin.pick_feed_mm, target, tool.flutes
+
+
+def plan_periods(entities: Iterable, config: MachineConfig, *, method: str | None = None,
+                 feed_override: float = 1.0, start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096
+                 ) -> Iterator[PeriodBatch | object]:
+    """Period batches interleaved with the non-motion events (see FeedPlanner)."""
+    return FeedPlanner(config, method=method, feed_override=feed_override, start_mm=start_mm,
+                       batch_periods=batch_periods).run(entities)

@@ -1,0 +1,148 @@
+"""Feed limits at the path samples, as caps on x = v^2 (the phase-plane variable), each
+with its reason code (ipo/period.py LIMIT_*).
+
+All functions are pure and work on arrays of samples: unit tangent t (K, 3), curvature
+vector kv = dt/ds (K, 3), per-axis limits V (3,) mm/s and A (3,) mm/s^2.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ipo.period import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_ROUGHNESS
+from ipo.roughness import inclination_rad, roughness_feed_mm_s
+
+_TINY = 1e-12
+
+
+def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
+    """v |t_i| <= V_i on every axis."""
+    with np.errstate(divide="ignore"):
+        return np.min((v_max[None, :] / np.abs(t)) ** 2, axis=1)
+
+
+def curvature_cap(t: np.ndarray, kv: np.ndarray, a_max: np.ndarray) -> np.ndarray:
+    """Largest x for which some path acceleration s'' keeps every axis within its limit.
+
+    Axis i needs |t_i s'' + kv_i x| <= A_i: an interval for s'' centred on -kv_i x / t_i
+    with half-width A_i / |t_i|. All intervals meet iff every pair does, which bounds x
+    pairwise; an axis with t_i = 0 needs |kv_i| x <= A_i on its own.
+    """
+    at = np.abs(t)
+    moving = at > _TINY
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(moving, kv / np.where(moving, t, 1.0), 0.0)
+        half = np.where(moving, a_max[None, :] / np.where(moving, at, 1.0), np.inf)
+        cap = np.where(~moving & (np.abs(kv) > _TINY), a_max[None, :] / np.abs(kv), np.inf).min(axis=1)
+        for i in range(3):
+            for j in range(i + 1, 3):
+                both = moving[:, i] & moving[:, j]
+                gap = np.abs(ratio[:, i] - ratio[:, j])
+                pair = np.where(both & (gap > _TINY), (half[:, i] + half[:, j]) / gap, np.inf)
+                cap = np.minimum(cap, pair)
+    return cap
+
+
+@njit(cache=True)
+def _window_max(s, kappa, reach):
+    """max of kappa over the samples within s[k] +- reach[k]."""
+    n = s.shape[0]
+    out = np.empty(n)
+    for k in range(n):
+        m = kappa[k]
+        j = k - 1
+        while j >= 0 and s[k] - s[j] <= reach[k]:
+            m = max(m, kappa[j])
+            j -= 1
+        if j >= 0:
+            m = max(m, kappa[j])  # the sample just outside bounds the curvature in between
+        j = k + 1
+        while j < n and s[j] - s[k] <= reach[k]:
+            m = max(m, kappa[j])
+            j += 1
+        if j < n:
+            m = max(m, kappa[j])
+        out[k] = m
+    return out
+
+
+def chord_cap(s: np.ndarray, kv: np.ndarray, delta_mm: float, period_s: float,
+              x_other: np.ndarray) -> np.ndarray:
+    """Chord error within delta for every chord a period can span.
+
+    The formula V <= (2/T) sqrt(2 rho delta - delta^2) holds for a constant radius; on a
+    real curve the chord spans varying curvature, so rho is taken as the smallest radius
+    within one chord (at the speed the other limits allow) of the sample, iterated once
+    with the reduced speed.
+    """
+    kappa = np.linalg.norm(kv, axis=1)
+    reach = np.sqrt(np.minimum(x_other, 1e12)) * period_s
+    cap = np.full(len(s), np.inf)
+    for _ in range(2):
+        k_eff = _window_max(s, kappa, reach)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = np.where(k_eff > _TINY, 1.0 / k_eff, np.inf)
+            half = np.where(rho > delta_mm, 2 * rho * delta_mm - delta_mm**2, delta_mm**2)
+            v = np.where(np.isfinite(rho), 2.0 / period_s * np.sqrt(half), np.inf)  # algorithms.md §6
+        cap = v**2
+        reach = np.sqrt(np.minimum(np.minimum(x_other, cap), 1e12)) * period_s
+    return cap
+
+
+def corner_cap(dt: np.ndarray, a_max: np.ndarray, period_s: float, tol_mm: np.ndarray) -> np.ndarray:
+    """Speed cap at a corner crossed without a blend, with dt = t_out - t_in (J, 3).
+
+    Crossing within one period changes each axis velocity by v |dt_i| over at most a
+    period: v <= A_i T / |dt_i|. The period's chord cuts the corner by at most
+    (v T / 2) sin(theta / 2) = v T |dt| / 4, kept within tol_mm.
+    """
+    with np.errstate(divide="ignore"):
+        v_acc = np.min(a_max[None, :] * period_s / np.abs(dt), axis=1)
+        v_cut = 4 * tol_mm / (period_s * np.linalg.norm(dt, axis=1))
+    return np.minimum(v_acc, v_cut) ** 2
+
+
+def combine(caps: list[tuple[np.ndarray, int]]) -> tuple[np.ndarray, np.ndarray]:
+    """Element-wise minimum of several caps and the reason code of the binding one."""
+    stack = np.vstack([c for c, _ in caps])
+    arg = np.argmin(stack, axis=0)
+    codes = np.array([code for _, code in caps], dtype=np.int8)
+    return stack[arg, np.arange(stack.shape[1])], codes[arg]
+
+
+def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, delta_mm: float,
+                finishing: tuple[float, float, float, int] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Cap on v^2 at every sample from all limits except the programmed feed, and its reason.
+
+    `finishing` = (ball radius, pick feed, roughness target, flutes) switches on 002's
+    limiter for feed moves while the spindle turns; None switches it off.
+    """
+    x_axis = axis_velocity_cap(smp.t, v_max)
+    x_curv = curvature_cap(smp.t, smp.kv, a_max)
+    x_corner = np.full(len(smp), np.inf)
+    edge = np.nonzero(smp.piece[1:] != smp.piece[:-1])[0]
+    dt = smp.t[edge + 1] - smp.t[edge]
+    sharp = np.linalg.norm(dt, axis=1) > 1e-7
+    k = edge[sharp]
+    tol = np.maximum(delta_mm, pc.corner_tol_mm[smp.piece[k]])
+    c = corner_cap(dt[sharp], a_max, period_s, tol)
+    x_corner[k] = c
+    x_corner[k + 1] = c
+    caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
+    x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
+    caps.append((x_chord, LIMIT_CHORD))
+    if finishing is not None:
+        r, pick, target, flutes = finishing
+        rpm = pc.rpm[smp.piece]
+        active = ~pc.rapid[smp.piece] & (rpm > 0)
+        f = roughness_feed_mm_s(r, pick, target, flutes, rpm, inclination_rad(smp.t))
+        caps.append((np.where(active, f**2, np.inf), LIMIT_ROUGHNESS))
+    cap, reason = combine(caps)
+    last = np.concatenate([edge, [len(smp) - 1]])
+    stops = last[pc.stop_after[smp.piece[last]]]
+    cap[stops] = 0.0
+    reason[stops] = LIMIT_DWELL
+    nxt = stops[stops + 1 < len(smp)] + 1
+    cap[nxt] = 0.0
+    reason[nxt] = LIMIT_DWELL
+    return cap, reason

@@ -1,0 +1,112 @@
+"""Look-ahead velocity profile over path samples and its time parameterisation.
+
+The profile lives in the phase plane x(s) = v(s)^2, linear in s between samples (a
+constant path acceleration s'' = dx/ds / 2 in each interval). A backward scan from the
+window's end velocity bounds every sample by what the machine can still brake from, a
+forward scan from the start velocity by what it can reach; both respect the per-axis
+acceleration limits A_i through |t_i s'' + kv_i x| <= A_i (tangential plus centripetal
+share of each axis), so the profile never exceeds the caps and is reachable.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_BIG = 1e300
+
+
+@njit(cache=True)
+def _bounds(t, kv, k, x, a_max):
+    """Range [lo, hi] of the path acceleration s'' allowed at sample k and speed^2 x."""
+    lo = -_BIG
+    hi = _BIG
+    for i in range(3):
+        ti = t[k, i]
+        if abs(ti) > 1e-12:
+            c = -kv[k, i] * x / ti
+            hw = a_max[i] / abs(ti)
+            lo = max(lo, c - hw)
+            hi = min(hi, c + hw)
+    if lo > hi:  # x sits (numerically) on the curvature cap: no room either way
+        lo = hi = 0.5 * (lo + hi)
+    return lo, hi
+
+
+@njit(cache=True)
+def backward(s, t, kv, cap, a_max, x_end):
+    """Largest x at each sample from which the machine can still meet every later cap."""
+    n = s.shape[0]
+    xb = np.empty(n)
+    xb[n - 1] = min(cap[n - 1], x_end)
+    for k in range(n - 2, -1, -1):
+        xn = xb[k + 1]
+        ds = s[k + 1] - s[k]
+        if ds <= 0.0:
+            xb[k] = min(cap[k], xn)
+            continue
+        lo1 = _bounds(t, kv, k + 1, xn, a_max)[0]
+        best = min(cap[k], max(xn - 2.0 * ds * lo1, 0.0))
+        xc = best
+        for _ in range(2):  # the braking ability at sample k depends on x there
+            dec = max(lo1, _bounds(t, kv, k, xc, a_max)[0])
+            xc = min(cap[k], max(xn - 2.0 * ds * dec, 0.0))
+            best = min(best, xc)
+        xb[k] = best
+    return xb
+
+
+@njit(cache=True)
+def forward(s, t, kv, xb, a_max, x0):
+    """Fastest profile from x0 under the backward bound xb. If x0 lies above xb (the feed
+    override dropped), the machine brakes at its limit until it is back under the bound."""
+    n = s.shape[0]
+    x = np.empty(n)
+    x[0] = x0
+    for k in range(n - 1):
+        xk = x[k]
+        ds = s[k + 1] - s[k]
+        if ds <= 0.0:
+            x[k + 1] = min(xk, xb[k + 1])
+            continue
+        hi0 = _bounds(t, kv, k, xk, a_max)[1]
+        acc = min(hi0, _bounds(t, kv, k + 1, xk, a_max)[1])
+        xc = min(xb[k + 1], xk + 2.0 * ds * acc)
+        best = xc
+        for _ in range(2):  # the acceleration left at sample k+1 depends on x there
+            acc = min(hi0, _bounds(t, kv, k + 1, max(xc, 0.0), a_max)[1])
+            xc = min(xb[k + 1], xk + 2.0 * ds * acc)
+            best = min(best, xc)
+        lo = max(_bounds(t, kv, k, xk, a_max)[0], _bounds(t, kv, k + 1, max(best, 0.0), a_max)[0])
+        floor = xk + 2.0 * ds * lo
+        x[k + 1] = max(best, floor, 0.0)
+    return x
+
+
+def plan(s, t, kv, cap, a_max, x0: float, x_end: float) -> np.ndarray:
+    """The look-ahead profile x = v^2 at every sample."""
+    xb = backward(s, t, kv, cap, a_max, x_end)
+    return forward(s, t, kv, xb, a_max, x0)
+
+
+def sample_times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Time at each sample from the first, with constant s'' in each interval."""
+    v = np.sqrt(np.maximum(x, 0.0))
+    ds = np.diff(s)
+    vsum = v[:-1] + v[1:]
+    if np.any((ds > 0) & (vsum <= 0)):
+        k = int(np.nonzero((ds > 0) & (vsum <= 0))[0][0])
+        raise RuntimeError(f"look-ahead profile stands still inside the path at s = {s[k]:.6f} mm")
+    dt = np.divide(2.0 * ds, vsum, out=np.zeros_like(ds), where=ds > 0)
+    return np.concatenate([[0.0], np.cumsum(dt)])
+
+
+def positions_at(times: np.ndarray, s: np.ndarray, x: np.ndarray, tc: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Arc length and the sample interval at each time (times within [0, tc[-1]])."""
+    k = np.clip(np.searchsorted(tc, times, side="right") - 1, 0, len(s) - 2)
+    tau = times - tc[k]
+    ds = s[k + 1] - s[k]
+    v0 = np.sqrt(np.maximum(x[k], 0.0))
+    acc = np.divide(x[k + 1] - x[k], 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
+    pos = np.minimum(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1])
+    return np.maximum(pos, s[k]), k

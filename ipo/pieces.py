@@ -1,0 +1,196 @@
+"""Path pieces for the feed stage: motion entities turned into one arc-length-parametrised path.
+
+Every analytic piece (a line, a G2/G3 arc or helix, or a G64 corner blend) shares one
+form, evaluated by arc length sigma in [0, length]:
+
+    p(sigma) = c + r(phi) (cos(phi) e1 + sin(phi) e2) + w sigma,  phi = omega sigma,
+    r(phi) = radius + dr * phi
+
+(a line has radius 0 and w its unit direction; an arc whose end lies slightly off the
+circle spirals by dr so that it ends exactly on its end point). NURBS pieces refer to
+their entity and are walked by its stepper; the planner only samples their geometry.
+
+Corner blending (G64 P): the corner between two line-like moves is replaced by the
+circular arc tangent to both whose deviation from the corner is P,
+R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
+(theta the change of direction). G61, P0 and corners that involve an arc or a NURBS are
+not blended; the planner limits the speed there instead.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
+
+KIND_ANALYTIC = 0
+KIND_NURBS = 1
+_COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
+_REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
+
+
+@dataclass(slots=True)
+class Pieces:
+    """P consecutive pieces: arrays of length P (vectors (P, 3))."""
+
+    c: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    w: np.ndarray
+    radius: np.ndarray
+    dr: np.ndarray
+    omega: np.ndarray
+    length: np.ndarray
+    kind: np.ndarray  # KIND_*
+    nurbs: np.ndarray  # index into the owner's NURBS list, -1 for analytic pieces
+    line: np.ndarray  # source line
+    feed_mm_s: np.ndarray  # programmed feed; the rapid rate for G0
+    rapid: np.ndarray  # bool: G0 (feed override does not apply)
+    stop_after: np.ndarray  # bool: the machine stands still at the piece's end
+    corner_tol_mm: np.ndarray  # path deviation tolerated where the piece ends in a sharp corner
+    rpm: np.ndarray  # spindle speed while the piece runs (roughness limiter)
+
+    def __len__(self) -> int:
+        return len(self.length)
+
+    @staticmethod
+    def concat(parts: list["Pieces"]) -> "Pieces":
+        return Pieces(*(np.concatenate([getattr(p, f) for p in parts]) for f in Pieces.__slots__))
+
+    def take(self, idx) -> "Pieces":
+        return Pieces(*(getattr(self, f)[idx] for f in Pieces.__slots__))
+
+
+def _empty(n: int) -> Pieces:
+    z3 = np.zeros((n, 3))
+    return Pieces(z3.copy(), z3.copy(), z3.copy(), z3.copy(), np.zeros(n), np.zeros(n), np.zeros(n),
+                  np.zeros(n), np.zeros(n, np.int8), np.full(n, -1, np.int32), np.zeros(n, np.int32),
+                  np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), np.zeros(n), np.zeros(n))
+
+
+def evaluate(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Points (N, 3) of analytic pieces idx at arc lengths sigma."""
+    phi = pc.omega[idx] * sigma
+    r = pc.radius[idx] + pc.dr[idx] * phi
+    return (pc.c[idx] + (r * np.cos(phi))[:, None] * pc.e1[idx] + (r * np.sin(phi))[:, None] * pc.e2[idx]
+            + sigma[:, None] * pc.w[idx])
+
+
+def frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangent and curvature vector d(tangent)/ds of analytic pieces (the spiral term dr,
+    at most microns over a whole arc, is left out)."""
+    phi = pc.omega[idx] * sigma
+    ro = (pc.radius[idx] * pc.omega[idx])[:, None]
+    cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    t = ro * (cs * pc.e2[idx] - sn * pc.e1[idx]) + pc.w[idx]
+    k = -(ro * pc.omega[idx][:, None]) * (cs * pc.e1[idx] + sn * pc.e2[idx])
+    return t, k
+
+
+@dataclass(slots=True)
+class Motion:
+    """A motion entity with the state it runs under, as the builder receives it."""
+
+    entity: Line | Rapid | Arc | Nurbs
+    rpm: float
+    nurbs_index: int  # index into the owner's NURBS list, -1 otherwise
+
+
+def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
+    a, b, n = PLANE_AXES[e.plane]
+    ua, ub, un = np.eye(3)[a], np.eye(3)[b], np.eye(3)[n]
+    start, end, centre = np.array(e.start), np.array(e.end), np.array(e.center)
+    r0 = e.radius_mm
+    if not r0 > 0:
+        raise ValueError(f"line {e.line}: arc radius is zero (start point on the centre)")
+    r1 = float(np.hypot(end[a] - centre[a], end[b] - centre[b]))
+    sweep = e.sweep_rad
+    theta = abs(sweep)
+    e1 = ((start[a] - centre[a]) * ua + (start[b] - centre[b]) * ub) / r0
+    e2 = np.cross(un, e1) * np.sign(sweep)  # CCW turns from the first plane axis to the second
+    rise = end[n] - start[n]
+    length = float(np.hypot(0.5 * (r0 + r1) * theta, rise))
+    pc.c[i] = centre + (start[n] - centre[n]) * un
+    pc.e1[i], pc.e2[i] = e1, e2
+    pc.w[i] = un * rise / length
+    pc.radius[i] = r0
+    pc.dr[i] = (r1 - r0) / theta
+    pc.omega[i] = theta / length
+    pc.length[i] = length
+
+
+def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
+          rapid_mm_s: float, nurbs_length) -> tuple[Pieces, float]:
+    """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
+
+    Without `final`, the last motion is held back (its end corner needs the next move);
+    the returned trim is how much of its start the corner blend already took: pass it
+    back as lead_trim_mm with the held-back motion first in the next call.
+    `nurbs_length(i)` gives the arc length of the NURBS with owner index i.
+    """
+    n = len(motions)
+    ents = [m.entity for m in motions]
+    rapid = np.array([isinstance(e, Rapid) for e in ents])
+    line_like = rapid | np.array([isinstance(e, Line) for e in ents])
+    start = np.array([e.start for e in ents], dtype=float).reshape(n, 3)
+    end = np.array([e.end for e in ents], dtype=float).reshape(n, 3)
+    feed = np.array([rapid_mm_s if r else e.feed_mm_s for e, r in zip(ents, rapid)], dtype=float)
+    lines = np.array([e.line for e in ents], dtype=np.int32)
+    rpm = np.array([m.rpm for m in motions], dtype=float)
+    exact = np.array([e.path.exact_stop for e in ents])
+    tol = np.array([0.0 if e.path.exact_stop else
+                    (blend_default_mm if e.path.blend_tol_mm is None else e.path.blend_tol_mm)
+                    for e in ents], dtype=float)
+    vec = end - start
+    length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
+    unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
+    # corner blends between consecutive line-like moves: junction j joins moves j and j+1
+    trim_in, trim_out = np.zeros(n), np.zeros(n)
+    trim_in[0] = lead_trim_mm
+    nj = n - 1
+    both = line_like[:-1] & line_like[1:] & (length[:-1] > 0) & (length[1:] > 0) & (tol[:-1] > 0)
+    cos_t = np.clip(np.einsum("ij,ij->i", unit[:-1], unit[1:]), -1.0, 1.0)
+    theta = np.where(both, np.arccos(cos_t), 0.0)
+    blend = both & (theta > _COLLINEAR_RAD) & (theta < _REVERSAL_RAD)
+    half = np.where(blend, 0.5 * theta, 0.25)
+    avail = 0.5 * np.minimum(length[:-1], length[1:])
+    r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
+    radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
+    d = radius * np.tan(half)
+    trim_out[:-1] = d
+    trim_in[1:] += d
+    emit = n if final else n - 1
+    pc = _empty(2 * emit)  # even slots: each move's own piece; odd slots: the blend at its end
+    own, bl = np.arange(0, 2 * emit, 2), np.arange(1, 2 * emit, 2)
+    for arr, vals in ((pc.line, lines), (pc.rapid, rapid), (pc.feed_mm_s, feed), (pc.rpm, rpm)):
+        arr[own] = vals[:emit]
+        arr[bl] = vals[:emit]
+    ll = line_like[:emit]
+    pc.c[own] = start[:emit] + unit[:emit] * trim_in[:emit, None]
+    pc.w[own] = unit[:emit]
+    pc.length[own] = np.where(ll, np.maximum(length[:emit] - trim_in[:emit] - trim_out[:emit], 0.0), 0.0)
+    pc.stop_after[own] = exact[:emit]
+    if final:
+        pc.stop_after[own[-1]] = True
+    pc.corner_tol_mm[own] = tol[:emit]
+    jb = np.nonzero(blend[:emit])[0]
+    t1, t2 = unit[jb], unit[jb + 1]
+    m_perp = (t2 - np.cos(theta[jb])[:, None] * t1) / np.sin(theta[jb])[:, None]
+    k = bl[jb]
+    pc.c[k] = end[jb] - t1 * d[jb, None] + radius[jb, None] * m_perp
+    pc.e1[k], pc.e2[k] = -m_perp, t1
+    pc.radius[k] = radius[jb]
+    pc.omega[k] = 1.0 / radius[jb]
+    pc.length[k] = radius[jb] * theta[jb]
+    for i in np.nonzero(~ll)[0]:
+        e, slot = ents[i], 2 * i
+        if isinstance(e, Arc):
+            _arc_piece(pc, slot, e)
+        else:
+            pc.kind[slot] = KIND_NURBS
+            pc.nurbs[slot] = motions[i].nurbs_index
+            pc.length[slot] = nurbs_length(motions[i].nurbs_index)
+            pc.c[slot] = start[i]
+    keep = pc.length > 0
+    return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
