@@ -172,11 +172,17 @@ class GrblLink:
 
     # --- session ------------------------------------------------------------
     def connect(self, config=None, *, unlock: bool = False) -> ConnectInfo:
-        """Wake grbl, wait for any motion to finish, soft-reset it into a known state and read
-        its settings and build info; warn where $110-$122 disagree with `config`."""
-        self._write(P.WAKE)
-        self._settle()
-        st = self.query_status()
+        """Wake grbl (if `?` gets no answer), wait for any motion to finish, soft-reset it into
+        a known state and read its settings and build info; warn where $110-$122 disagree
+        with `config`. With `unlock`, an alarm is cleared with $X."""
+        # `?` first: a wake's line ends would complete (and run) a partial line a previous
+        # session left in grbl's RX buffer, while the soft reset below clears it.
+        try:
+            st = self.query_status(timeout_s=self.reset_timeout_s / 2)
+        except LinkError:
+            self._write(P.WAKE)
+            self._settle()
+            st = self.query_status(timeout_s=self.reset_timeout_s)
         if st.state in ("Run", "Jog", "Home"):
             st = self.wait_state(("Idle", "Alarm", "Hold"), self.idle_timeout_s)
         if st.state in ("Hold", "Door"):

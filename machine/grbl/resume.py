@@ -69,13 +69,13 @@ def find_resume(window: Sequence[StreamLine], at_mm, tol_mm: float = POSITION_TO
             continue
         where = _on_path(line, p, tol_mm)
         if where == "start":
-            return ResumePoint(pending or line.seq, False, tuple(p))
+            return ResumePoint(pending or line.seq, False, tuple(float(v) for v in p))
         if where == "inside":
-            return ResumePoint(line.seq, True, tuple(p))
+            return ResumePoint(line.seq, True, tuple(float(v) for v in p))
         ended = where == "end"
         pending = None
     if ended or not any(l.motion for l in window):
-        return ResumePoint(pending or window[-1].seq + 1, False, tuple(p))
+        return ResumePoint(pending or window[-1].seq + 1, False, tuple(float(v) for v in p))
     raise ResumeError(f"the machine stands at X{p[0]:.3f} Y{p[1]:.3f} Z{p[2]:.3f}, which is on none of "
                       f"stream lines {window[0].seq}..{window[-1].seq}; move it to the start of the line "
                       f"to resume from, or pick another line")

@@ -1,0 +1,232 @@
+"""Fault injection against the grbl test double: after each fault the ledger shows no
+line lost or sent twice, and resuming finishes the program with every motion run
+exactly once, in order, ending at the program's end point."""
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from grbl_emulator import Faults, GrblDouble, PtyServer, SocketServer
+from ipo.config import default_config
+from ipr.entities import Arc, Coolant, Dwell, Line, ProgramEnd, Rapid, Spindle
+from machine.grbl.ledger import Ledger, LedgerError
+from machine.grbl.link import GrblLink, LinkError
+from machine.grbl.program import StreamLine, stream_lines
+
+CFG = default_config()
+FAST = dict(poll_interval_s=0.02, settle_s=0.03, stall_timeout_s=0.5, reset_timeout_s=2.0, idle_timeout_s=10.0)
+
+
+def _program():
+    """A zigzag of 60 feed lines with a spindle, coolant, a dwell and two arcs."""
+    ents = [Spindle(1, 12000.0, "cw"), Coolant(2, False, True), Rapid(3, (0.0, 0.0, 0.0), (0.0, 0.0, 2.0)),
+            Line(4, (0.0, 0.0, 2.0), (0.0, 0.0, -1.0), 5.0), Dwell(5, 0.25)]
+    p = (0.0, 0.0, -1.0)
+    for i in range(60):
+        q = (float(i + 1), 3.0 * (i % 2), -1.0)
+        ents.append(Line(6 + i, p, q, 20.0))
+        p = q
+    # a half circle of radius 5, then a full circle of radius 2
+    q = (p[0] + 10.0, p[1], -1.0)
+    ents.append(Arc(66, p, q, (p[0] + 5.0, p[1], -1.0), "XY", True, 15.0))
+    ents.append(Arc(67, q, (q[0], q[1], -1.0), (q[0] - 2.0, q[1], -1.0), "XY", False, 15.0))  # full circle
+    ents += [Rapid(68, q, (q[0], q[1], 5.0)), ProgramEnd(69)]
+    return ents
+
+
+LINES = list(stream_lines(_program(), CFG))
+MOTION_ENDS = [l.end_mm for l in LINES if l.motion]
+
+
+def _session(port, lines, *, resume_from=None, unlock=False):
+    link = GrblLink(port, **FAST)
+    try:
+        link.connect(CFG, unlock=unlock)
+        if resume_from is None:
+            ledger = Ledger(1)
+            return link.stream(lines, ledger), None
+        point, _ = link.resume_point(l for l in lines if l.seq >= resume_from)
+        ledger = Ledger(point.seq)
+        return link.stream([l for l in lines if l.seq >= point.seq], ledger, resume=point), point
+    finally:
+        link.close()
+
+
+def _assert_ran_once(double: GrblDouble):
+    ran = [t for _, t in double.executed if t is not None]
+    assert len(ran) == len(MOTION_ENDS)
+    for got, want in zip(ran, MOTION_ENDS):
+        assert got == pytest.approx(want, abs=1e-4)
+    assert double.pos == pytest.approx(list(MOTION_ENDS[-1]), abs=1e-4)
+    assert double.rx_overflow == 0 and double.max_rx_fill <= 127
+
+
+def _assert_covers(first, second, total):
+    """The two sessions' ledgers cover 1..total back to back, each line once."""
+    first.check()
+    second.check()
+    assert first.first == 1 and first.resume_from == second.first
+    assert second.resume_from == total + 1
+
+
+def test_clean_stream_over_pty_fills_the_rx_buffer_and_runs_every_line():
+    d = GrblDouble(drain_s_per_block=0.0005)
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+    assert res.completed and res.fault is None
+    res.ledger.check()
+    assert res.ledger.resume_from == len(LINES) + 1
+    assert all(res.ledger.state(l.seq) == "ok" and res.ledger.sends(l.seq) == 1 for l in LINES)
+    _assert_ran_once(d)
+    assert max(res.rx_fill) <= 127 and max(res.rx_fill) > 90  # counting keeps the buffer nearly full
+    assert res.status.state == "Idle" and res.status.wpos == pytest.approx(MOTION_ENDS[-1], abs=1e-3)
+    assert res.status.mpos == pytest.approx([a + b for a, b in zip(MOTION_ENDS[-1], d.wco)], abs=1e-3)
+
+
+def test_error_on_a_line_stops_reports_and_resume_finishes():
+    bad = next(l for l in LINES if l.source_line == 40)
+    d = GrblDouble(drain_s_per_block=0.003, faults=Faults(error_on={bad.text: 20}))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+        assert not res.completed and res.fault.kind == "error"
+        assert res.fault.seq == bad.seq and res.fault.source_line == 40
+        assert "error:20" in res.fault.message and "Unsupported or invalid g-code" in res.fault.message
+        assert res.ledger.state(bad.seq) == "error"
+        assert res.resume.seq <= bad.seq  # the rejected line and everything after it are still to do
+        res2, point = _session(srv.port, LINES, resume_from=res.resume.seq)
+    assert res2.completed
+    assert point.seq == res.resume.seq
+    _assert_covers(res.ledger, res2.ledger, len(LINES))
+    _assert_ran_once(d)
+
+
+def test_alarm_stops_requires_unlock_and_resume_finishes():
+    bad = next(l for l in LINES if l.source_line == 30)
+    d = GrblDouble(drain_s_per_block=0.003, faults=Faults(alarm_on={bad.text: 2}))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+        assert res.fault.kind == "alarm" and "ALARM:2" in res.fault.message and "$X" in res.fault.message
+        with pytest.raises(LinkError, match="alarm"):
+            _session(srv.port, LINES, resume_from=res.resume.seq)
+        res2, _ = _session(srv.port, LINES, resume_from=res.resume.seq, unlock=True)
+    assert res2.completed
+    _assert_covers(res.ledger, res2.ledger, len(LINES))
+    _assert_ran_once(d)
+
+
+def test_dropped_connection_reports_last_ack_and_resume_checks_position():
+    d = GrblDouble(drain_s_per_block=0.003, faults=Faults(drop_after_lines=45))
+    with SocketServer(d, banner_on_connect=False).start() as srv:
+        res, _ = _session(srv.port, LINES)
+        assert res.fault.kind == "disconnected" and res.resume is None
+        last = res.ledger.last_acknowledged
+        assert f"last acknowledged stream line {last}" in res.fault.message
+        assert res.ledger.last_sent > last  # lines in flight when the port closed
+        res2, point = _session(srv.port, LINES, resume_from=last + 1)
+    assert point.seq >= last + 1  # grbl ran lines whose answers were lost: not sent again
+    res.ledger.resume_from = point.seq
+    assert res2.completed
+    _assert_covers(res.ledger, res2.ledger, len(LINES))
+    _assert_ran_once(d)
+    assert srv.connections == 2
+
+
+def test_garbage_bytes_are_not_taken_for_answers():
+    d = GrblDouble(drain_s_per_block=0.0005, faults=Faults(garbage_every=7))
+    with PtyServer(d).start() as srv:
+        link = GrblLink(srv.port, **FAST)
+        link.connect(CFG)
+        res = link.stream(LINES, Ledger(1))
+        link.close()
+    assert res.completed
+    res.ledger.check()
+    assert len(link.garbage) >= 2 * (len(LINES) // 7)
+    _assert_ran_once(d)
+
+
+def test_slow_acknowledgements_do_not_trip_the_stall_guard():
+    d = GrblDouble(drain_s_per_block=0.0, faults=Faults(ack_delay_s=0.01))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+    assert res.completed
+    res.ledger.check()
+    _assert_ran_once(d)
+
+
+def test_a_board_that_stops_answering_is_reported_with_the_last_ack():
+    d = GrblDouble(drain_s_per_block=0.0, faults=Faults(hang_after_lines=32))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+    assert res.fault.kind == "stalled"
+    last = res.ledger.last_acknowledged
+    assert last == 30  # $$ and $I were lines 1 and 2 the double counted
+    assert f"--resume-from {last + 1}" in res.fault.message
+
+
+def _big_arc_lines():
+    big = 12345678901.0  # 80 characters with the modal words, 68 without
+    s, c = (big, big, -big), (big + 5.0, big, -big)
+    e = (big + 10.0, big, -big)
+    return list(stream_lines([Rapid(1, (0.0, 0.0, 0.0), s), Arc(2, s, e, c, "XY", True, 10.0)], CFG))
+
+
+def test_a_line_too_long_for_grbl_is_split_and_runs():
+    lines = _big_arc_lines()
+    assert all(len(l.text) <= 79 for l in lines)
+    assert [l.source_line for l in lines].count(2) == 2  # modal words and motion on two lines
+    d = GrblDouble()
+    with PtyServer(d).start() as srv:
+        link = GrblLink(srv.port, **FAST)
+        link.connect(CFG)
+        res = link.stream(lines, Ledger(1))
+        link.close()
+    assert res.completed and d.pos == pytest.approx(list(lines[-1].end_mm), abs=1e-4)
+
+
+def test_a_line_that_cannot_be_split_is_refused_not_truncated():
+    huge = 1e20
+    from machine.grbl.program import StreamProgramError
+    with pytest.raises(StreamProgramError, match=r"line 7: .* characters; grbl takes at most 79"):
+        list(stream_lines([Rapid(7, (0.0, 0.0, 0.0), (huge, huge, huge))], CFG))
+    d = GrblDouble()
+    with PtyServer(d).start() as srv:
+        link = GrblLink(srv.port, **FAST)
+        link.connect(CFG)
+        long = StreamLine(1, 9, "G1X1.0000" + "Y1.0000" * 11, (0.0,) * 3, (1.0, 1.0, 0.0), True, ())
+        with pytest.raises(LinkError, match="80|79"):
+            link.stream([long], Ledger(1))
+        with pytest.raises(LinkError, match="longer than"):
+            link.command("G4P" + "0" * 80)
+        link.close()
+    assert d.lines_received == 2  # only $$ and $I reached the board
+
+
+def test_ledger_refuses_duplicates_and_orphan_answers():
+    led = Ledger(1)
+    led.sent(1, 10)
+    with pytest.raises(LedgerError, match="second time"):
+        led.sent(1, 10)
+    with pytest.raises(LedgerError, match="before line 2"):
+        led.sent(3, 10)
+    assert led.answered(True) == (1, 10)
+    with pytest.raises(LedgerError, match="no line waiting"):
+        led.answered(True)
+    led.resume_from = 3
+    with pytest.raises(LedgerError, match="line 2 .* unsent"):
+        led.check()
+
+
+def test_connect_warns_where_grbl_rates_disagree_with_the_machine_file():
+    settings = dict(GrblDouble().settings)
+    settings[110], settings[121] = 3000.0, 500.0
+    d = GrblDouble(settings=settings)
+    with PtyServer(d).start() as srv:
+        link = GrblLink(srv.port, **FAST)
+        info = link.connect(CFG)
+        link.close()
+    assert len(info.warnings) == 2
+    assert "$110=3000 mm/min (X max rate) is lower than the machine file's 6000" in info.warnings[0]
+    assert "$121=500" in info.warnings[1] and "1000" in info.warnings[1]
+    assert info.build.rx_buffer_bytes == 128 and info.build.planner_blocks == 15
+    assert math.isclose(CFG.axes[0].max_velocity_mm_s * 60, 6000.0)
