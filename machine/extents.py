@@ -10,6 +10,7 @@ the reported extent of such a curve is exact to the sampling's sagitta.
 from __future__ import annotations
 
 import math
+from itertools import chain
 
 import numpy as np
 
@@ -52,21 +53,40 @@ def nurbs_extent(curve: Nurbs, lo_mm: np.ndarray, hi_mm: np.ndarray) -> tuple[np
     return pts.min(axis=0), pts.max(axis=0)
 
 
+def _arcs_near_the_limits(arcs: list[Arc], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Arc]:
+    """Arcs whose whole circle (centre ± radius in the plane) is not inside the travel."""
+    if not arcs:
+        return []
+    def coords(attr):
+        return np.fromiter(chain.from_iterable(getattr(m, attr) for m in arcs), float, 3 * len(arcs)).reshape(-1, 3)
+    start, end, centre = coords("start"), coords("end"), coords("center")
+    normal = np.array([PLANE_AXES[m.plane][2] for m in arcs])
+    in_plane = np.ones((len(arcs), 3), bool)
+    in_plane[np.arange(len(arcs)), normal] = False
+    r = np.maximum(np.linalg.norm(np.where(in_plane, start - centre, 0), axis=1),
+                   np.linalg.norm(np.where(in_plane, end - centre, 0), axis=1))[:, None]
+    lo = np.where(in_plane, centre - r, np.minimum(start, end))
+    hi = np.where(in_plane, centre + r, np.maximum(start, end))
+    near = np.nonzero(((lo < lo_mm) | (hi > hi_mm)).any(axis=1))[0]
+    return [arcs[i] for i in near]
+
+
 def travel_violations(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[tuple[int, str]]:
-    """(line, reason) for every motion that leaves the travel, one per axis and side."""
-    straight = [m for m in motions if isinstance(m, (Rapid, Line))]
-    out: list[tuple[int, str]] = []
+    """(line, reason) for every motion that leaves the travel, one per axis and side.
+
+    A straight move spans its start and end, and its start is the previous motion's
+    end (or the start position, which the caller checks), so its end point suffices.
+    """
+    straight = [m for m in motions if type(m) is Line or type(m) is Rapid]
     boxes: list[tuple[int, np.ndarray, np.ndarray]] = []
     if straight:
-        ends = np.array([(m.start, m.end) for m in straight])  # (n, 2, 3)
-        slo, shi = ends.min(axis=1), ends.max(axis=1)
-        bad = np.nonzero(((slo < lo_mm) | (shi > hi_mm)).any(axis=1))[0]
-        boxes += [(straight[i].line, slo[i], shi[i]) for i in bad]
-    for m in motions:
-        if isinstance(m, Arc):
-            boxes.append((m.line, *arc_extent(m)))
-        elif isinstance(m, Nurbs):
-            boxes.append((m.line, *nurbs_extent(m, lo_mm, hi_mm)))
+        ends = np.fromiter(chain.from_iterable(m.end for m in straight), float, 3 * len(straight)).reshape(-1, 3)
+        bad = np.nonzero(((ends < lo_mm) | (ends > hi_mm)).any(axis=1))[0]
+        boxes += [(straight[i].line, ends[i], ends[i]) for i in bad]
+    arcs = [m for m in motions if type(m) is Arc]
+    boxes += [(m.line, *arc_extent(m)) for m in _arcs_near_the_limits(arcs, lo_mm, hi_mm)]
+    boxes += [(m.line, *nurbs_extent(m, lo_mm, hi_mm)) for m in motions if type(m) is Nurbs]
+    out: list[tuple[int, str]] = []
     for line, lo, hi in sorted(boxes, key=lambda b: b[0]):
         for i, name in enumerate("XYZ"):
             if lo[i] < lo_mm[i]:
