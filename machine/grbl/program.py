@@ -216,16 +216,17 @@ class _Builder:
 
 def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), merge_tol_mm: float | None = None,
                  plan: Callable[[Iterable, tuple], Iterator] | None = None,
-                 notices: list[str] | None = None) -> Iterator[StreamLine]:
+                 notices: list[str] | None = None, ipo_from_start: bool = False) -> Iterator[StreamLine]:
     """The stream for a program's entities. `plan(entities, start_mm)` replaces the IPO
     (tests only); `notices` collects what grbl cannot do and vcnc did instead.
 
-    The IPO starts at the first NURBS (from standstill there) and then runs in step with
-    the stream, so its look-ahead sees every later entity; a program without NURBS never
-    pays for it, and memory stays bounded either way."""
+    The IPO runs in step with the stream, so its look-ahead sees every later entity, and
+    memory stays bounded. It starts at the first NURBS, from standstill there, unless
+    `ipo_from_start` (for a program known to hold a NURBS): then it plans from the
+    program's start and the first NURBS is entered at the speed the IPO carries into it."""
     b = _Builder(start_mm, config.chord_tol_mm if merge_tol_mm is None else merge_tol_mm, config.period_s)
     ents, for_ipo = itertools.tee(entities)
-    cursor = None
+    cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos))) if ipo_from_start else None
     yield b.emit(0, PREAMBLE + "G17")
     for e in ents:
         if cursor is None and isinstance(e, Nurbs):

@@ -1,0 +1,166 @@
+"""grbl protocol parsing, the streamed program and the resume search, against hand-made values."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ipo.config import default_config
+from ipo.nurbs import curve_points
+from ipo.period import PeriodBatch
+from ipr.entities import Arc, Coolant, Line, Nurbs, ProgramEnd, Rapid, Spindle, ToolChange
+from machine.grbl import protocol as P
+from machine.grbl.program import StreamLine, merge_polyline, resume_text, stream_lines
+from machine.grbl.resume import ResumeError, find_resume
+
+CFG = default_config()
+
+
+def test_status_report_with_wco_fills_work_position():
+    st = P.parse_status("<Run|MPos:10.000,-2.500,3.000|Bf:12,96|FS:1200,8000|WCO:5.000,-3.000,1.000>")
+    assert st.state == "Run" and st.substate is None
+    assert st.wpos == pytest.approx((5.0, 0.5, 2.0))
+    assert (st.planner_free, st.rx_free, st.feed_mm_min, st.spindle_rpm) == (12, 96, 1200.0, 8000.0)
+    later = P.parse_status("<Hold:0|MPos:11.000,0.000,1.000|Ov:120,100,100|Pn:XZ|Ln:42|F:500>", st.wco)
+    assert later.state == "Hold" and later.substate == 0 and later.wpos == pytest.approx((6.0, 3.0, 0.0))
+    assert later.overrides == (120, 100, 100) and later.pins == "XZ" and later.line == 42
+    assert later.feed_mm_min == 500.0 and later.spindle_rpm is None
+    wpos_only = P.parse_status("<Idle|WPos:1.000,2.000,3.000>", (1.0, 1.0, 1.0))
+    assert wpos_only.mpos == pytest.approx((2.0, 3.0, 4.0))
+    with pytest.raises(P.StatusError):
+        P.parse_status("<Flying|MPos:0,0,0>")
+    with pytest.raises(P.StatusError):
+        P.parse_status("<Idle|FS:0,0>")
+
+
+def test_classify_and_meanings():
+    kinds = [P.classify(b).kind for b in (b"ok", b"error:22", b"ALARM:1", b"<Idle|MPos:0,0,0>",
+                                         b"Grbl 1.1h ['$' for help]", b"$110=500.000", b"[MSG:Pgm End]",
+                                         b">G54G20:ok", b"\xffok", b"okay")]
+    assert kinds == ["ok", "error", "alarm", "status", "banner", "setting", "feedback", "startup",
+                     "garbage", "garbage"]
+    assert P.classify(b"error:22").code == 22
+    assert P.error_meaning(22) == "Feed rate has not yet been set or is undefined."
+    assert "soft limit" in P.alarm_meaning(2)
+    assert P.error_meaning(99) == "unknown grbl error code 99"
+
+
+def test_settings_and_build_info():
+    s = P.parse_settings(["$0=10", "$110=500.000", "$N0=G54", "junk", "$120=10.5"])
+    assert s == {0: 10.0, 110: 500.0, 120: 10.5}
+    b = P.parse_build_info(["[VER:1.1h.20190825:my mill]", "[OPT:VNM,35,254]"])
+    assert (b.version, b.options, b.planner_blocks, b.rx_buffer_bytes) == ("1.1h.20190825", "VNM", 35, 254)
+    old = P.parse_build_info(["[VER:1.1d.20161014:]", "[OPT:VL]"])
+    assert old.rx_buffer_bytes is None
+
+
+def test_passthrough_lines_are_absolute_and_explicit():
+    ents = [Spindle(1, 1000.0, "ccw"), Coolant(2, True, True), Rapid(3, (0, 0, 0), (1, 2, 3)),
+            Line(4, (1, 2, 3), (-0.00001, 2, 3), 10.0),
+            Arc(5, (0, 2, 3), (0, 2, 3), (0, 2, 0), "ZX", True, 5.0, turns=1),
+            ToolChange(6, 3), ProgramEnd(7)]
+    notes = []
+    lines = list(stream_lines(ents, CFG, notices=notes))
+    texts = [l.text for l in lines]
+    assert texts[:7] == ["G21G90G91.1G94G17", "M4S1000.0000", "M9", "M7", "M8", "G0X1.0000Y2.0000Z3.0000",
+                         "G1X0.0000Y2.0000Z3.0000F600.0000"]
+    # a full circle plus one extra turn: two full circles of radius 3 in ZX, K = centre - start
+    arcs = [l for l in lines if l.arc]
+    assert len(arcs) == 2 and all(t.text.startswith("G18F300.0000G3") for t in arcs)
+    assert arcs[0].text.endswith("I0.0000K-3.0000") and arcs[0].end_mm == pytest.approx((0, 2, 3))
+    assert texts[-2:] == ["M0", "M2"] and "T3" in notes[0]
+    assert [l.seq for l in lines] == list(range(1, len(lines) + 1))
+
+
+def test_helical_turns_split_into_equal_arcs_on_the_helix():
+    arc = Arc(1, (10.0, 0.0, 0.0), (0.0, 10.0, 6.0), (0.0, 0.0, 0.0), "XY", True, 10.0, turns=2)
+    lines = [l for l in stream_lines([arc], CFG, start_mm=(10.0, 0.0, 0.0)) if l.arc]
+    assert len(lines) == 3
+    sweep = 2 * math.pi * 2 + math.pi / 2
+    for k, l in enumerate(lines, 1):  # each piece ends on the circle at k/3 of the sweep and the rise
+        th = sweep * k / 3
+        assert l.end_mm == pytest.approx((10 * math.cos(th), 10 * math.sin(th), 6.0 * k / 3), abs=1e-9)
+
+
+def test_merge_keeps_every_period_point_within_tolerance():
+    th = np.linspace(0, np.pi / 2, 2001)
+    pts = np.c_[50 * np.cos(th), 50 * np.sin(th), np.zeros_like(th)]
+    tol = 0.001
+    keep = merge_polyline(pts, tol)
+    assert keep[0] == 0 and keep[-1] == len(pts) - 1
+    # the sagitta of a chord c on radius R is c^2/(8R): segments may not exceed 2*sqrt(2*R*tol)
+    worst = 0.0
+    for a, b in zip(keep[:-1], keep[1:]):
+        seg = pts[b] - pts[a]
+        for p in pts[a + 1:b]:
+            t = np.clip(np.dot(p - pts[a], seg) / np.dot(seg, seg), 0, 1)
+            worst = max(worst, np.linalg.norm(pts[a] + t * seg - p))
+    assert worst <= tol
+    longest = 2 * math.sqrt(2 * 50 * tol)
+    assert np.max(np.linalg.norm(np.diff(pts[keep], axis=0), axis=1)) <= longest + 1e-9
+    assert len(keep) - 1 >= math.ceil(50 * np.pi / 2 / longest)  # no fewer segments than geometry allows
+
+
+def _quarter_circle():
+    w = math.sqrt(0.5)
+    return Nurbs(9, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.array([1, w, 1.0]),
+                 np.array([[30, 20, 0], [30, 30, 0], [20, 30, 0.0]]), 50.0)
+
+
+def _fake_plan(speed_mm_s, period_s):
+    """Tests only: periods along the exact curve at constant arc-length speed (a stand-in IPO)."""
+    def plan(ents, start_mm):
+        for e in ents:
+            if isinstance(e, Nurbs):
+                u = np.linspace(0, 1, 20001)
+                c = curve_points(e.degree, e.knots, e.weights, e.points, u)
+                s = np.r_[0, np.cumsum(np.linalg.norm(np.diff(c, axis=0), axis=1))]
+                n = int(s[-1] / (speed_mm_s * period_s))
+                targets = np.interp(np.arange(1, n + 1) * speed_mm_s * period_s, s, u)
+                pos = curve_points(e.degree, e.knots, e.weights, e.points, targets)
+                yield PeriodBatch(pos, np.zeros((n, 3), np.int64), np.full(n, speed_mm_s), np.zeros(n, np.int8),
+                                  np.full(n, e.line, np.int32))
+    return plan
+
+
+def test_nurbs_goes_out_as_g1_segments_at_the_planned_feed_within_tolerance():
+    nurbs = _quarter_circle()
+    lines = list(stream_lines([nurbs], CFG, start_mm=(30, 20, 0), merge_tol_mm=0.001,
+                              plan=_fake_plan(40.0, CFG.period_s)))
+    segs = lines[1:]
+    assert all(l.text.startswith("G1") and l.source_line == 9 for l in segs)
+    assert segs[-1].end_mm == pytest.approx((20, 30, 0))
+    feeds = [float(l.text.split("F")[1]) for l in segs[:-1]]
+    assert feeds == pytest.approx([40.0 * 60] * len(feeds), rel=1e-3)  # the planned 40 mm/s
+    # every vertex lies on the radius-10 circle about (20, 20), every chord's sagitta <= tolerance
+    ends = np.array([l.end_mm for l in segs])
+    r = np.hypot(ends[:, 0] - 20, ends[:, 1] - 20)
+    assert np.max(np.abs(r - 10)) < 1e-4
+    chords = np.linalg.norm(np.diff(np.vstack(([30, 20, 0], ends)), axis=0), axis=1)
+    assert np.max(chords[:-1] ** 2 / (8 * 10)) <= 0.001 + 2 * 40 * CFG.period_s * 1e-3
+
+
+def _line(seq, s, e, motion=True, arc=None):
+    return StreamLine(seq, seq, "x", tuple(map(float, s)), tuple(map(float, e)), motion, (), arc)
+
+
+def test_find_resume_inside_at_start_and_after_idempotent_lines():
+    w = [_line(5, (0, 0, 0), (10, 0, 0)), _line(6, (10, 0, 0), (10, 0, 0), motion=False),
+         _line(7, (10, 0, 0), (10, 5, 0))]
+    assert find_resume(w, (4.0, 0, 0)).seq == 5 and find_resume(w, (4.0, 0, 0)).partial
+    assert find_resume(w, (0, 0, 0)).seq == 5 and not find_resume(w, (0, 0, 0)).partial
+    assert find_resume(w, (10.0, 0.0005, 0)).seq == 6  # the spindle line is sent again
+    assert find_resume(w, (10, 5, 0)).seq == 8
+    with pytest.raises(ResumeError, match="on none of stream lines 5..7"):
+        find_resume(w, (3, 3, 0))
+
+
+def test_resume_inside_an_arc_recomputes_ijk_from_the_machine_position():
+    center = (0.0, 0.0, 0.0)
+    arc = StreamLine(3, 3, "G17F600.0000G3X0.0000Y10.0000Z0.0000I-10.0000J0.0000", (10.0, 0, 0), (0, 10.0, 0),
+                     True, (), (center, "XY", True, 600.0))
+    p = (10 * math.cos(0.3), 10 * math.sin(0.3), 0.0)
+    point = find_resume([arc], p)
+    assert point.partial and point.seq == 3
+    assert resume_text(arc, p) == (f"G17F600.0000G3X0.0000Y10.0000Z0.0000I{-p[0]:.4f}J{-p[1]:.4f}")
