@@ -6,7 +6,10 @@ interpolate, drive), realtime_factor = simulated time / that wall time, and the
 process's peak RSS (os.wait4). Machine: 100 mm/s and 1000 mm/s² per axis, 1 ms
 period (the built-in default machine).
 
-Memory check: the largest program runs again at 25 % feed override (four times the
+The machine is shared, so the CPU time of the process (user + system, from the same
+wait4) is printed next to the wall time: it is the figure that noise does not move.
+
+Memory check: the largest program runs again at a 0.25 ms period (four times the
 periods, same blocks); the peak RSS must not grow with the periods.
 
 Breakdown: stellabee1 in-process, phase by phase (parse + travel check, then the
@@ -50,18 +53,20 @@ def run_process_rss(path: Path, *extra: str) -> dict:
     result.unlink()
     if os.waitstatus_to_exitcode(status) != 0:
         raise SystemExit(f"vcnc run {path.name} failed with status {os.waitstatus_to_exitcode(status)}")
-    return {"summary": json.loads(text.strip().splitlines()[-1]), "wall_s": wall, "rss_mb": usage.ru_maxrss / 1024}
+    return {"summary": json.loads(text.strip().splitlines()[-1]), "wall_s": wall, "rss_mb": usage.ru_maxrss / 1024,
+            "cpu_s": usage.ru_utime + usage.ru_stime}
 
 
 def breakdown(path: Path) -> None:
-    """Phase times in-process, then cProfile's self time per module."""
+    """Phase CPU times in-process, then cProfile's self time per module."""
     from ipo.config import default_config
     from machine.controller import Controller
 
+    clock = time.process_time
     controller = Controller(default_config())
-    t0 = time.perf_counter()
+    t0 = clock()
     program = controller.check(path)
-    t_check = time.perf_counter() - t0
+    t_check = clock() - t0
     drive_s = [0.0]
     make_drive = controller.make_drive
 
@@ -70,20 +75,22 @@ def breakdown(path: Path) -> None:
         receive = drive.receive
 
         def timed(batch):
-            t = time.perf_counter()
+            t = clock()
             receive(batch)
-            drive_s[0] += time.perf_counter() - t
+            drive_s[0] += clock() - t
         drive.receive = timed
         return drive
 
     controller.make_drive = timed_drive
+    t0 = clock()
     result = controller.run(program)
-    print(f"\nbreakdown, {path.name} in one process (numba caches warm):")
+    t_run = clock() - t0
+    print(f"\nbreakdown, {path.name} in one process (CPU seconds, numba caches warm):")
     print(f"  parse + whole-program check  {t_check:8.2f} s")
-    print(f"  plan + interpolate           {result.wall_s - drive_s[0]:8.2f} s")
+    print(f"  plan + interpolate           {t_run - drive_s[0]:8.2f} s")
     print(f"  drive (integrate, measure)   {drive_s[0]:8.2f} s")
     print(f"  simulated time {result.cycle_time_s:.1f} s; in-process factor "
-          f"{result.cycle_time_s / (t_check + result.wall_s):.0f}x")
+          f"{result.cycle_time_s / (t_check + t_run):.0f}x")
 
     controller.make_drive = make_drive
     prof = cProfile.Profile()
@@ -110,24 +117,26 @@ def main() -> None:
         print(f"skipped (not found): {p}")
     run_process_rss(ROOT / "programs" / "demo.nc")  # warm numba's caches so no row pays for compiling
     print(f"{'program':22s} {'blocks':>7s} {'periods':>9s} {'sim s':>8s} {'wall s':>7s} {'rt factor':>9s} "
-          f"{'peak MB':>8s}")
+          f"{'cpu s':>7s} {'sim/cpu':>8s} {'peak MB':>8s}")
     rows = {}
     for p in programs:
         r = run_process_rss(p)
         s = r["summary"]
         rows[p.name] = r
         print(f"{p.name:22s} {s['blocks']:7d} {s['periods']:9d} {s['cycle_time_s']:8.1f} {r['wall_s']:7.2f} "
-              f"{s['cycle_time_s'] / r['wall_s']:9.1f} {r['rss_mb']:8.1f}")
+              f"{s['cycle_time_s'] / r['wall_s']:9.1f} {r['cpu_s']:7.2f} {s['cycle_time_s'] / r['cpu_s']:8.1f} "
+              f"{r['rss_mb']:8.1f}")
     big = programs[0]
-    r = run_process_rss(big, "--feed-override", "25")
+    r = run_process_rss(big, "--period-ms", "0.25")
     s = r["summary"]
     base = rows[big.name]
     print(f"\nmemory vs periods, {big.name}: {base['summary']['periods']} periods -> {base['rss_mb']:.1f} MB; "
-          f"at 25 % override {s['periods']} periods -> {r['rss_mb']:.1f} MB")
+          f"at a 0.25 ms period {s['periods']} periods -> {r['rss_mb']:.1f} MB")
     if "stellabee" in big.name:
         factor = base["summary"]["cycle_time_s"] / base["wall_s"]
-        print(f"bar: >= 100x real time end to end on {big.name}: {factor:.1f}x -> "
-              f"{'met' if factor >= 100 else 'NOT met'}")
+        cpu_factor = base["summary"]["cycle_time_s"] / base["cpu_s"]
+        print(f"bar: >= 100x real time end to end on {big.name}: {factor:.1f}x by wall time, "
+              f"{cpu_factor:.1f}x by CPU time -> {'met' if factor >= 100 else 'NOT met'} (wall)")
         breakdown(big)
 
 
