@@ -15,7 +15,7 @@ from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Diagnostic, Dwell, GC
 from ipr.errors import BlockError
 from ipr.expressions import evaluate, param_key
 from ipr.modal import INCH_MM, ModalState, Setup, Staged
-from ipr.syntax import LineSyntaxError, parse_line_columns, split_line
+from ipr.syntax import LineSyntaxError, parse_line_columns, split_parts, template_for
 
 _PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
 
@@ -50,7 +50,7 @@ class Interpreter:
         self.out: list = []
         self.diagnostics: list[Diagnostic] = []
         self.warnings: list[Diagnostic] = []
-        self._specs: dict = {}
+        self._plans: dict = {}
         self._percents = 0
         self.done = False
 
@@ -77,49 +77,69 @@ class Interpreter:
         self.warnings.append(Diagnostic(self.file, line, col, code, message, severity))
 
     # ---- lines --------------------------------------------------------------------
+    def _plan(self, shape: str):
+        """The cached plan of a line shape: None (not simple: full grammar), or
+        (template, spec or BlockError, short-path data)."""
+        if len(self._plans) > 4096:
+            self._plans.clear()
+        tpl = template_for(shape)
+        if tpl is None:
+            plan = None
+        else:
+            spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
+            fast = None
+            if spec.__class__ is BlockSpec and spec.linear:
+                part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
+                fast = (spec.motion, tuple((k, part[i]) for k, i in spec.axis_idx),
+                        part.get(spec.f_index))
+            plan = (tpl, spec, fast)
+        self._plans[shape] = plan
+        return plan
+
     def feed(self, line: int, text: str) -> None:
         if self.done:
             return
-        tpl, nums = split_line(text)
+        parts = split_parts(text)
+        shape = "\x00".join(parts[0::2])
+        plan = self._plans[shape] if shape in self._plans else self._plan(shape)
         try:
-            if tpl is not None:
-                if not tpl.letters or tpl.delete and self.setup.block_delete:
-                    return
-                spec = self._specs.get(tpl.key)
-                if spec is None:
-                    spec = self._specs[tpl.key] = analyse(tuple(
-                        (l, f) for l, f in zip(tpl.letters, tpl.fixed)))
-                    if len(self._specs) > 4096:
-                        self._specs.clear()
-                if spec.__class__ is BlockError:
-                    raise spec
-                vals = list(tpl.fixed)
-                for i, s in zip(tpl.slots, nums):
-                    vals[i] = float(s)
-                if spec.linear and self.state.nurbs is None:
-                    self._linear(spec, vals, line)
-                else:
-                    self._execute(spec, vals, (), (), line, text)
+            if plan is None:
+                return self._full(line, text)
+            tpl, spec, fast = plan
+            if not tpl.letters or tpl.delete and self.setup.block_delete:
                 return
-            try:
-                block, _ = parse_line_columns(text)
-            except LineSyntaxError as e:
-                raise BlockError("E-SYNTAX", e.message, col=e.col) from None
-            if block.percent:
-                self._percents += 1
-                self.done = self._percents == 2  # the second % ends the program
-                return
-            if block.delete and self.setup.block_delete:
-                return
-            params = self.state.params
-            vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
-            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
-            spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
             if spec.__class__ is BlockError:
                 raise spec
-            self._execute(spec, vals, assigns, block.messages, line, text)
+            if fast is not None and self.state.nurbs is None:
+                motion = fast[0] if fast[0] is not None else self.state.motion
+                if motion == 10 or motion == 0:
+                    return self._linear(motion, fast, parts, line)
+            vals = list(tpl.fixed)
+            for i, s in zip(tpl.slots, parts[1::2]):
+                vals[i] = float(s)
+            self._execute(spec, vals, (), (), line, text)
         except BlockError as err:
             self._fail(err, line, text)
+
+    def _full(self, line: int, text: str) -> None:
+        """A line off the fast path: full grammar, expressions, parameters."""
+        try:
+            block, _ = parse_line_columns(text)
+        except LineSyntaxError as e:
+            raise BlockError("E-SYNTAX", e.message, col=e.col) from None
+        if block.percent:
+            self._percents += 1
+            self.done = self._percents == 2  # the second % ends the program
+            return
+        if block.delete and self.setup.block_delete:
+            return
+        params = self.state.params
+        vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
+        assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
+        if spec.__class__ is BlockError:
+            raise spec
+        self._execute(spec, vals, assigns, block.messages, line, text)
 
     def _eval(self, node, word: int) -> float:
         try:
@@ -138,30 +158,35 @@ class Interpreter:
                        group.line, "")
 
     # ---- the short path: G0/G1 with axis words, F, N ---------------------------------
-    def _linear(self, spec: BlockSpec, vals: list, line: int) -> None:
+    def _linear(self, motion: int, fast: tuple, parts: list, line: int) -> None:
+        """G0/G1 with only axis words, F and N: same checks as _execute, less overhead."""
         s = self.state
-        err = spec.check_usage(s.motion)
-        if err is not None:
-            raise err
-        motion = spec.motion if spec.motion is not None else s.motion
-        if motion != 10 and motion != 0:
-            return self._execute(spec, vals, (), (), line, "")
+        _, axis_parts, f_part = fast
         feed_value = s.feed_value
-        fi = spec.f_index
-        if fi is not None:
-            feed_value = vals[fi]
+        if f_part is not None:
+            feed_value = float(parts[f_part])
             if feed_value < 0.0:
-                raise BlockError("E-VALUE", f"negative feed rate F{feed_value:g}", fi)
-        if spec.axis_idx:
-            end = target(s, spec, vals, s.pos)
+                raise BlockError("E-VALUE", f"negative feed rate F{feed_value:g}", col=_col(parts, f_part))
+        if axis_parts:
+            pos = s.pos
+            end = list(pos)
+            unit = s.unit
+            if s.absolute:
+                off = s.offset
+                for k, p in axis_parts:
+                    end[k] = float(parts[p]) * unit + off[k]
+            else:
+                for k, p in axis_parts:
+                    end[k] += float(parts[p]) * unit
+            end = tuple(end)
             if motion == 10:
-                feed_mm_s = feed_value * s.unit / 60.0
+                feed_mm_s = feed_value * unit / 60.0
                 if feed_mm_s <= 0.0:
                     raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
-                                     spec.index[spec.axes[0]])
-                self.out.append(Line(line, s.pos, end, feed_mm_s, s.path))
+                                     col=_col(parts, axis_parts[0][1]))
+                self.out.append(Line(line, pos, end, feed_mm_s, s.path))
             else:
-                self.out.append(Rapid(line, s.pos, end, s.path))
+                self.out.append(Rapid(line, pos, end, s.path))
             s.pos = end
         s.feed_value = feed_value
         s.motion = motion
@@ -363,6 +388,11 @@ class Interpreter:
                       st.pos[b] + (vals[idx[ib]] * unit if ib in idx else 0.0))
         return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path, center_ab=center, turns=turns,
                         word=idx[offs[0]], unit_mm=unit)
+
+
+def _col(parts: list[str], p: int) -> int:
+    """1-based column of the letter just before the slot number parts[p]."""
+    return len("".join(parts[:p]))
 
 
 def _whole(value: float, letter: str, word: int) -> int:

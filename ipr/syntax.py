@@ -180,6 +180,11 @@ def template_for(shape: str) -> Template | None:
     return Template(letters, fixed, slots, block.delete, shape)
 
 
+def split_parts(text: str) -> list[str]:
+    """[text, number, text, number, ..., text]: the shape is "\x00".join(parts[0::2])."""
+    return _SLOT.split(text)
+
+
 def split_line(text: str) -> tuple[Template | None, list[str]]:
     """The line's template (None: not simple) and its slot numbers as text."""
     parts = _SLOT.split(text)
