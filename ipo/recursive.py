@@ -6,10 +6,13 @@ output: n1 curve evaluations per period, the output point included.
 
 Tolerance mode (§2.2.1 for the start-up; `chord_tol_pct` for every period): trial points
 are evaluated until the chord is within the tolerance of d, and the accepted trial *is*
-the output point. With `secant` (the adaptive mode) the update is not eq. 9 but a root
+the output point; should the cap stop it on a trial beyond d(1 + tol), the longest trial
+short of d is output instead, so a tolerance-mode chord never exceeds d(1 + tol). With `secant` (the adaptive mode) the update is not eq. 9 but a root
 of the quadratic signed-chord model sigma(du) = a du + b du^2 through the origin and the
 two latest known points (the previous step seen backwards counts as one: sigma(-du_{j-1})
-= -s_{j-1}), kept inside the bracket of trials found so far; eq. 9 is the fallback.
+= -s_{j-1}), kept inside the bracket of trials found so far. Where it leaves the bracket, or two
+trials in a row fall on the same side of d (a kink in the curve), the Illinois variant of
+regula falsi on the bracket takes over; eq. 9 serves until an overshoot closes the bracket.
 
 A zero chord (a stretch where the curve stands still) doubles the increment instead of
 dividing by zero, so the parameter always moves forward.
@@ -74,8 +77,11 @@ def recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
     Returns (du, x, y, z, chord, evals, at_end, span)."""
     evals = 0
     k = 1
-    lo = 0.0
-    hi = inf
+    lo, flo = 0.0, -d  # bracket of du with chord - d below and above zero
+    hi, fhi = inf, inf
+    xl, yl, zl, sl = px, py, pz, 0.0  # the point at lo: short of d
+    streak = 0  # trials in a row on the same side of d
+    short = False  # the previous trial fell short of d
     xa, ya = -gb, -sb
     while True:
         clamped = g >= ru
@@ -94,20 +100,33 @@ def recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
         else:
             accept = not clamped and (abs(s - d) <= tol * d or evals >= cap)
         if accept:
+            if tol >= 0.0 and s > d * (1.0 + tol) and lo > 0.0:  # capped: never overshoot d
+                return lo, xl, yl, zl, sl, evals, False, span
             return g, x, y, z, s, evals, False, span
         if not secant:
             gn = eq9(d, g, s)
         else:
-            if s < d:
-                lo = g
+            streak = streak + 1 if (s < d) == short else 1
+            short = s < d
+            if short:
+                lo, flo = g, s - d
+                xl, yl, zl, sl = x, y, z, s
             else:
-                hi = g
+                hi, fhi = g, s - d
+            if streak >= 2:  # Illinois: the end that keeps staying counts half
+                if short:
+                    fhi *= 0.5
+                else:
+                    flo *= 0.5
             gn = -1.0
-            if s > 0.0 and ya != 0.0:
+            if s > 0.0 and ya != 0.0 and streak < 2:
                 gn = _quadratic_root(d, xa, ya, g, s)
-            if gn <= lo or gn >= hi:
-                gn = eq9(d, g, s)
-            if gn <= lo or gn >= hi:
+            if not (lo < gn < hi):
+                if hi < inf:
+                    gn = lo - flo * (hi - lo) / (fhi - flo)
+                else:  # no overshoot yet: eq. 9, or doubling where the chord hardly grows
+                    gn = eq9(d, g, s) if streak < 3 else max(eq9(d, g, s), 2.0 * g)
+            if not (lo < gn < hi):
                 gn = 0.5 * (lo + hi) if hi < inf else 2.0 * g
             if s > 0.0:
                 xa, ya = g, s

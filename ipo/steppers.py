@@ -82,6 +82,7 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
             res = taylor_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, der,
                               1 if method == _TAYLOR1 else 2, fallback)
         g, x, y, z, s, evals, at_end, span = res
+        at_end = at_end or u + g >= u_max  # u + du rounded onto u_max
         evals += extra
         ist[_SPAN] = span
         if not started:
@@ -126,6 +127,10 @@ def _check_curve(e: Nurbs) -> None:
         raise ValueError(f"{where}: knot vector must be clamped (first and last knot repeated {p + 1} times)")
     if not knots[-1] > knots[0]:
         raise ValueError(f"{where}: knot vector has zero range")
+    _, mult = np.unique(knots[p + 1:-p - 1], return_counts=True)
+    if mult.size and mult.max() > p:
+        raise ValueError(f"{where}: an interior knot repeats {mult.max()} times; more than the degree {p} "
+                         "breaks the curve apart")
 
 
 class NurbsStepper:
