@@ -5,8 +5,8 @@ written out on every line; G2/G3 pass through as arcs (incremental IJK from the
 line's start, the plane code on the line; extra full turns become separate arcs).
 NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.plan_periods`): the
 per-period path is merged into G1 segments within `merge_tol_mm` of the period
-points, and each segment carries the IPO's planned feed over its periods
-(F = segment length / (periods * T)), so grbl runs the curve at the planned speed.
+points, and each segment carries the IPO's planned feed (the mean of the planned path
+speed over its periods), so grbl runs the curve at the speed vcnc planned.
 Numbers have 4 decimals in mm, feeds in mm/min.
 
 Lines are numbered 1.. in stream order (`seq`); `source_line` is the program line.
@@ -115,26 +115,29 @@ class _PeriodCursor:
     def __init__(self, batches: Iterator):
         self._it = batches
         self._pos = np.empty((0, 3))
+        self._feed = np.empty(0)
         self._line = np.empty(0, np.int64)
 
     def _fill(self) -> bool:
         for item in self._it:
             if hasattr(item, "inc_blu"):
                 self._pos = np.concatenate((self._pos, item.pos_mm))
+                self._feed = np.concatenate((self._feed, item.feed_mm_s))
                 self._line = np.concatenate((self._line, np.asarray(item.line, np.int64)))
                 return True
         return False
 
-    def take(self, line: int) -> np.ndarray:
-        """Positions of the periods of program line `line`; earlier periods are dropped."""
-        parts = []
+    def take(self, line: int) -> tuple[np.ndarray, np.ndarray]:
+        """(positions, planned feeds) of the periods of program line `line`; earlier periods are dropped."""
+        pos, feed = [], []
         while True:
             lo = np.searchsorted(self._line, line, side="left")
             hi = np.searchsorted(self._line, line, side="right")
-            parts.append(self._pos[lo:hi])
-            self._pos, self._line = self._pos[hi:], self._line[hi:]
+            pos.append(self._pos[lo:hi])
+            feed.append(self._feed[lo:hi])
+            self._pos, self._feed, self._line = self._pos[hi:], self._feed[hi:], self._line[hi:]
             if len(self._line) or not self._fill():
-                return np.concatenate(parts) if parts else np.empty((0, 3))
+                return np.concatenate(pos), np.concatenate(feed)
 
 
 def _plan_with_ipo(config) -> Callable[[Iterable, tuple], Iterator]:
@@ -144,11 +147,10 @@ def _plan_with_ipo(config) -> Callable[[Iterable, tuple], Iterator]:
 
 
 class _Builder:
-    def __init__(self, start_mm, merge_tol_mm: float, period_s: float):
+    def __init__(self, start_mm, merge_tol_mm: float):
         self.seq = 0
         self.pos = tuple(float(c) for c in start_mm)
         self.tol = merge_tol_mm
-        self.period_s = period_s
         self.plane, self.feed, self.spindle, self.coolant = "XY", None, "M5", ("M9",)
         self.notices: list[str] = []
 
@@ -196,19 +198,19 @@ class _Builder:
             out += self.motion(e.line, modal, words, end, (center, e.plane, e.ccw, self.feed))
         return out
 
-    def nurbs(self, e: Nurbs, pos_mm: np.ndarray) -> list[StreamLine]:
+    def nurbs(self, e: Nurbs, pos_mm: np.ndarray, feed_mm_s: np.ndarray) -> list[StreamLine]:
         if len(pos_mm) == 0:
             raise StreamProgramError(f"line {e.line}: the IPO planned no periods for this NURBS")
         pts = np.vstack((np.asarray(self.pos, float)[None, :], pos_mm))
         if np.linalg.norm(pts[-1] - np.asarray(e.end)) > 1e-9:  # the last period may have been carried on
             pts = np.vstack((pts, np.asarray(e.end, float)[None, :]))
+            feed_mm_s = np.r_[feed_mm_s, feed_mm_s[-1]]
         keep = merge_polyline(pts, self.tol)
         out = []
         for i0, i1 in zip(keep[:-1], keep[1:]):
-            length = float(np.linalg.norm(pts[i1] - pts[i0]))
-            if length == 0.0:
+            if not np.any(pts[i1] != pts[i0]):
                 continue
-            self.feed = 60.0 * length / ((i1 - i0) * self.period_s)  # the IPO's mean speed over these periods
+            self.feed = 60.0 * float(np.mean(feed_mm_s[i0:i1]))  # the IPO's planned speed over these periods
             end = tuple(float(v) for v in pts[i1])
             out += self.motion(e.line, "G1", f"{_xyz(end)}F{num(self.feed)}", end)
         return out
@@ -224,7 +226,7 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), merge_
     memory stays bounded. It starts at the first NURBS, from standstill there, unless
     `ipo_from_start` (for a program known to hold a NURBS): then it plans from the
     program's start and the first NURBS is entered at the speed the IPO carries into it."""
-    b = _Builder(start_mm, config.chord_tol_mm if merge_tol_mm is None else merge_tol_mm, config.period_s)
+    b = _Builder(start_mm, config.chord_tol_mm if merge_tol_mm is None else merge_tol_mm)
     ents, for_ipo = itertools.tee(entities)
     cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos))) if ipo_from_start else None
     yield b.emit(0, PREAMBLE + "G17")
@@ -239,7 +241,7 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), merge_
         elif isinstance(e, Arc):
             yield from b.arc(e)
         elif isinstance(e, Nurbs):
-            yield from b.nurbs(e, cursor.take(e.line))
+            yield from b.nurbs(e, *cursor.take(e.line))
         elif isinstance(e, Dwell):
             yield b.emit(e.line, f"G4P{num(e.seconds)}")
         elif isinstance(e, Spindle):
