@@ -32,7 +32,7 @@ from ipo.reference_word import quantise
 from ipo.roughness import cusp_height_mm
 from ipo.sampling import Samples, nurbs_table, sample
 from ipo.nurbs_driver import NurbsDriver
-from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Coolant, Dwell, Message, Nurbs, ProgramEnd, Spindle, Stop, ToolChange
+from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Line, Rapid, Coolant, Dwell, Message, Nurbs, ProgramEnd, Spindle, Stop, ToolChange
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
 # between samples and is checked at the samples only.
@@ -67,6 +67,7 @@ class FeedPlanner:
         self._smp: Samples | None = None
         self._cap = np.zeros(0)
         self._reason = np.zeros(0, np.int8)
+        self._corner = np.zeros(0, bool)
         self._x0 = 0.0  # v^2 at the first held sample
         self._s_end = 0.0  # arc length at the end of everything built
         self._phase = self.T  # time from the first held sample to the next period end
@@ -76,7 +77,6 @@ class FeedPlanner:
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
         self._v_top = float(np.linalg.norm(self.v_max))
-        self._stop_dist = self._v_top**2 / (2 * self.a_max.min()) + 1e-3
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -89,7 +89,17 @@ class FeedPlanner:
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
         """Period batches and events in order; the machine ends standing still."""
         for e in entities:
-            if isinstance(e, MOTION_TYPES):
+            tp = type(e)
+            if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
+                if e.start == e.end:
+                    continue  # a move to where the machine stands: no motion, no corner
+                if self._smp is None and not self._motions:
+                    self._check_start(e)
+                self._motions.append(Motion(e, self._rpm, -1))
+                if len(self._motions) > _BUILD_CHUNK:
+                    self._build(final=False)
+                    yield from self._plan(final=False)
+            elif isinstance(e, MOTION_TYPES):
                 self._take_motion(e)
                 if len(self._motions) > _BUILD_CHUNK:
                     self._build(final=False)
@@ -110,11 +120,15 @@ class FeedPlanner:
                 raise TypeError(f"the feed stage cannot handle {type(e).__name__}")
         yield from self._flush()
 
+    def _check_start(self, e) -> None:
+        if np.max(np.abs(np.array(e.start) - self.pos)) > _START_TOL_MM:
+            raise ValueError(f"line {e.line}: motion starts at {list(e.start)} but the machine "
+                             f"stands at {self.pos.tolist()}")
+
     def _take_motion(self, e) -> None:
-        if not self._motions and self._smp is None:
-            if np.max(np.abs(np.array(e.start) - self.pos)) > _START_TOL_MM:
-                raise ValueError(f"line {e.line}: motion starts at {list(e.start)} but the machine "
-                                 f"stands at {self.pos.tolist()}")
+        """Arcs and NURBS (lines take the lean path in run)."""
+        if self._smp is None and not self._motions:
+            self._check_start(e)
         idx = -1
         if isinstance(e, Nurbs):
             idx = self._n_nurbs
@@ -160,7 +174,7 @@ class FeedPlanner:
         if len(pc) == 0:
             return
         tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind == KIND_NURBS]}
-        smp = sample(pc, self._s_end, tables)
+        smp = sample(pc, self._s_end, tables, end_gap_mm=2 * self._v_top * self.T)
         if self._pieces is None:
             base = self._piece_base
             self._pieces = pc
@@ -173,17 +187,18 @@ class FeedPlanner:
         smp.piece += base
         local = self._pieces
         if self._smp is None:
-            cap, reason = self._caps(smp, local)
-            self._smp, self._cap, self._reason = smp, cap, reason
+            cap, reason, corner = self._caps(smp, local)
+            self._smp, self._cap, self._reason, self._corner = smp, cap, reason, corner
         else:
             joined = Samples.concat([self._smp.tail(len(self._smp) - 1), smp])
-            cap, reason = self._caps(joined, local)
-            keep = cap[0] < self._cap[-1]
-            if keep:
+            cap, reason, corner = self._caps(joined, local)
+            if cap[0] < self._cap[-1]:
                 self._cap[-1], self._reason[-1] = cap[0], reason[0]
+            self._corner[-1] |= corner[0]
             self._smp = Samples.concat([self._smp, smp])
             self._cap = np.concatenate([self._cap, cap[1:]])
             self._reason = np.concatenate([self._reason, reason[1:]])
+            self._corner = np.concatenate([self._corner, corner[1:]])
         self._s_end += float(pc.length.sum())
 
     def _caps(self, smp: Samples, pc: Pieces):
@@ -203,11 +218,15 @@ class FeedPlanner:
             self._override_changed = False
             smp = self._smp
             cap, reason = self._soft_caps()
-            x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, self._x0, 0.0)
+            ascale = np.where(self._corner[:-1] | self._corner[1:], 0.5, 1.0)
+            x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._x0, 0.0)
             if final:
                 c = len(smp) - 1
             else:
-                c = int(np.searchsorted(smp.s, self._s_end - self._stop_dist, side="right")) - 1
+                # what lies one stopping distance (at this window's top speed) before the
+                # window's end cannot depend on the moves not read yet
+                reach = float(cap.max()) / (2 * self.a_max.min()) + 1e-3
+                c = int(np.searchsorted(smp.s, self._s_end - reach, side="right")) - 1
                 if c < 1:
                     return
             yield from self._emit(c, x, cap, reason, stop=final)
@@ -307,7 +326,7 @@ class FeedPlanner:
     def _drop(self, k: int) -> None:
         """Forget samples before k and the pieces no sample refers to any more."""
         self._smp = self._smp.tail(k)
-        self._cap, self._reason = self._cap[k:], self._reason[k:]
+        self._cap, self._reason, self._corner = self._cap[k:], self._reason[k:], self._corner[k:]
         first = int(self._smp.piece[0]) - self._piece_base
         if first > 0:
             for i in np.unique(self._pieces.nurbs[:first]):
@@ -322,7 +341,7 @@ class FeedPlanner:
             self._piece_base += len(self._pieces)
         self._pieces, self._smp = None, None
         self._pstart = np.zeros(0)
-        self._cap, self._reason = np.zeros(0), np.zeros(0, np.int8)
+        self._cap, self._reason, self._corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
         self._x0 = 0.0
 
     def _stand(self, seconds: float, line: int) -> Iterator[PeriodBatch]:

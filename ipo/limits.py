@@ -93,11 +93,12 @@ def corner_cap(dt: np.ndarray, a_max: np.ndarray, period_s: float, tol_mm: np.nd
     """Speed cap at a corner crossed without a blend, with dt = t_out - t_in (J, 3).
 
     Crossing within one period changes each axis velocity by v |dt_i| over at most a
-    period: v <= A_i T / |dt_i|. The period's chord cuts the corner by at most
+    period: v <= A_i T / (2 |dt_i|) leaves the other half of A_i for the path acceleration
+    next to the corner (the planner halves it there). The period's chord cuts the corner by at most
     (v T / 2) sin(theta / 2) = v T |dt| / 4, kept within tol_mm.
     """
     with np.errstate(divide="ignore"):
-        v_acc = np.min(a_max[None, :] * period_s / np.abs(dt), axis=1)
+        v_acc = np.min(0.5 * a_max[None, :] * period_s / np.abs(dt), axis=1)
         v_cut = 4 * tol_mm / (period_s * np.linalg.norm(dt, axis=1))
     return np.minimum(v_acc, v_cut) ** 2
 
@@ -111,8 +112,10 @@ def combine(caps: list[tuple[np.ndarray, int]]) -> tuple[np.ndarray, np.ndarray]
 
 
 def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, delta_mm: float,
-                finishing: tuple[float, float, float, int] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Cap on v^2 at every sample from all limits except the programmed feed, and its reason.
+                finishing: tuple[float, float, float, int] | None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cap on v^2 at every sample from all limits except the programmed feed, its reason,
+    and which samples sit on a sharp (unblended) corner.
 
     `finishing` = (ball radius, pick feed, roughness target, flutes) switches on 002's
     limiter for feed moves while the spindle turns; None switches it off.
@@ -128,6 +131,8 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     c = corner_cap(dt[sharp], a_max, period_s, tol)
     x_corner[k] = c
     x_corner[k + 1] = c
+    corner = np.zeros(len(smp), bool)
+    corner[k] = corner[k + 1] = True
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
     x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
     caps.append((x_chord, LIMIT_CHORD))
@@ -145,4 +150,4 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     nxt = stops[stops + 1 < len(smp)] + 1
     cap[nxt] = 0.0
     reason[nxt] = LIMIT_DWELL
-    return cap, reason
+    return cap, reason, corner

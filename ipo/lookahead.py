@@ -16,15 +16,16 @@ _BIG = 1e300
 
 
 @njit(cache=True)
-def _bounds(t, kv, k, x, a_max):
-    """Range [lo, hi] of the path acceleration s'' allowed at sample k and speed^2 x."""
+def _bounds(t, kv, k, x, a_max, scale):
+    """Range [lo, hi] of the path acceleration s'' allowed at sample k and speed^2 x, with
+    the tangential share of the axis limits scaled by `scale`."""
     lo = -_BIG
     hi = _BIG
     for i in range(3):
         ti = t[k, i]
         if abs(ti) > 1e-12:
             c = -kv[k, i] * x / ti
-            hw = a_max[i] / abs(ti)
+            hw = scale * a_max[i] / abs(ti)
             lo = max(lo, c - hw)
             hi = min(hi, c + hw)
     if lo > hi:  # x sits (numerically) on the curvature cap: no room either way
@@ -33,7 +34,7 @@ def _bounds(t, kv, k, x, a_max):
 
 
 @njit(cache=True)
-def backward(s, t, kv, cap, a_max, x_end):
+def backward(s, t, kv, cap, a_max, ascale, x_end):
     """Largest x at each sample from which the machine can still meet every later cap."""
     n = s.shape[0]
     xb = np.empty(n)
@@ -44,11 +45,12 @@ def backward(s, t, kv, cap, a_max, x_end):
         if ds <= 0.0:
             xb[k] = min(cap[k], xn)
             continue
-        lo1 = _bounds(t, kv, k + 1, xn, a_max)[0]
+        f = ascale[k]
+        lo1 = _bounds(t, kv, k + 1, xn, a_max, f)[0]
         best = min(cap[k], max(xn - 2.0 * ds * lo1, 0.0))
         xc = best
         for _ in range(2):  # the braking ability at sample k depends on x there
-            dec = max(lo1, _bounds(t, kv, k, xc, a_max)[0])
+            dec = max(lo1, _bounds(t, kv, k, xc, a_max, f)[0])
             xc = min(cap[k], max(xn - 2.0 * ds * dec, 0.0))
             best = min(best, xc)
         xb[k] = best
@@ -56,7 +58,7 @@ def backward(s, t, kv, cap, a_max, x_end):
 
 
 @njit(cache=True)
-def forward(s, t, kv, xb, a_max, x0):
+def forward(s, t, kv, xb, a_max, ascale, x0):
     """Fastest profile from x0 under the backward bound xb. If x0 lies above xb (the feed
     override dropped), the machine brakes at its limit until it is back under the bound."""
     n = s.shape[0]
@@ -68,24 +70,26 @@ def forward(s, t, kv, xb, a_max, x0):
         if ds <= 0.0:
             x[k + 1] = min(xk, xb[k + 1])
             continue
-        hi0 = _bounds(t, kv, k, xk, a_max)[1]
-        acc = min(hi0, _bounds(t, kv, k + 1, xk, a_max)[1])
+        f = ascale[k]
+        hi0 = _bounds(t, kv, k, xk, a_max, f)[1]
+        acc = min(hi0, _bounds(t, kv, k + 1, xk, a_max, f)[1])
         xc = min(xb[k + 1], xk + 2.0 * ds * acc)
         best = xc
         for _ in range(2):  # the acceleration left at sample k+1 depends on x there
-            acc = min(hi0, _bounds(t, kv, k + 1, max(xc, 0.0), a_max)[1])
+            acc = min(hi0, _bounds(t, kv, k + 1, max(xc, 0.0), a_max, f)[1])
             xc = min(xb[k + 1], xk + 2.0 * ds * acc)
             best = min(best, xc)
-        lo = max(_bounds(t, kv, k, xk, a_max)[0], _bounds(t, kv, k + 1, max(best, 0.0), a_max)[0])
+        lo = max(_bounds(t, kv, k, xk, a_max, f)[0], _bounds(t, kv, k + 1, max(best, 0.0), a_max, f)[0])
         floor = xk + 2.0 * ds * lo
         x[k + 1] = max(best, floor, 0.0)
     return x
 
 
-def plan(s, t, kv, cap, a_max, x0: float, x_end: float) -> np.ndarray:
-    """The look-ahead profile x = v^2 at every sample."""
-    xb = backward(s, t, kv, cap, a_max, x_end)
-    return forward(s, t, kv, xb, a_max, x0)
+def plan(s, t, kv, cap, a_max, ascale, x0: float, x_end: float) -> np.ndarray:
+    """The look-ahead profile x = v^2 at every sample; ascale (K-1,) scales the path
+    acceleration in each interval (halved next to sharp corners)."""
+    xb = backward(s, t, kv, cap, a_max, ascale, x_end)
+    return forward(s, t, kv, xb, a_max, ascale, x0)
 
 
 def sample_times(s: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -80,6 +80,15 @@ def evaluate(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 def frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit tangent and curvature vector d(tangent)/ds of analytic pieces (the spiral term dr,
     at most microns over a whole arc, is left out)."""
+    t = pc.w[idx].copy()
+    k = np.zeros_like(t)
+    curved = np.nonzero(pc.omega[idx] != 0)[0]
+    if len(curved):
+        t[curved], k[curved] = _curved_frame(pc, idx[curved], sigma[curved])
+    return t, k
+
+
+def _curved_frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     phi = pc.omega[idx] * sigma
     ro = (pc.radius[idx] * pc.omega[idx])[:, None]
     cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
@@ -131,17 +140,23 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     """
     n = len(motions)
     ents = [m.entity for m in motions]
-    rapid = np.array([isinstance(e, Rapid) for e in ents])
-    line_like = rapid | np.array([isinstance(e, Line) for e in ents])
-    start = np.array([e.start for e in ents], dtype=float).reshape(n, 3)
-    end = np.array([e.end for e in ents], dtype=float).reshape(n, 3)
-    feed = np.array([rapid_mm_s if r else e.feed_mm_s for e, r in zip(ents, rapid)], dtype=float)
-    lines = np.array([e.line for e in ents], dtype=np.int32)
-    rpm = np.array([m.rpm for m in motions], dtype=float)
-    exact = np.array([e.path.exact_stop for e in ents])
-    tol = np.array([0.0 if e.path.exact_stop else
-                    (blend_default_mm if e.path.blend_tol_mm is None else e.path.blend_tol_mm)
-                    for e in ents], dtype=float)
+    tols: dict = {}
+
+    def info(m: Motion):
+        e = m.entity
+        path = e.path
+        tol = tols.get(id(path))
+        if tol is None:
+            tol = tols[id(path)] = (0.0 if path.exact_stop else blend_default_mm if path.blend_tol_mm is None
+                                else float(path.blend_tol_mm))
+        rapid = type(e) is Rapid
+        return (*e.start, *e.end, rapid_mm_s if rapid else e.feed_mm_s, e.line, m.rpm, tol,
+                path.exact_stop, rapid, rapid or type(e) is Line)
+
+    table = np.array([info(m) for m in motions], dtype=float).reshape(n, 13)
+    start, end, feed, rpm, tol = table[:, 0:3], table[:, 3:6], table[:, 6], table[:, 8], table[:, 9]
+    lines = table[:, 7].astype(np.int32)
+    exact, rapid, line_like = table[:, 10] > 0, table[:, 11] > 0, table[:, 12] > 0
     vec = end - start
     length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)

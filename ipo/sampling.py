@@ -104,8 +104,13 @@ def nurbs_table(e) -> NurbsTable:
     return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv)
 
 
-def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable]) -> Samples:
-    """Samples of all pieces, arc length counted from s0 at the first piece's start."""
+def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: float = 0.0) -> Samples:
+    """Samples of all pieces, arc length counted from s0 at the first piece's start.
+
+    Analytic pieces also get a sample end_gap_mm from each end, so that the short
+    stretch next to a sharp corner (where the planner halves the path acceleration) stays
+    short.
+    """
     n_int = np.maximum(np.ceil(pc.length / MAX_SPACING_MM), np.ceil(pc.omega * pc.length / MAX_TURN_RAD))
     n_int = np.maximum(n_int, 1).astype(np.int64)
     nurbs_idx = np.nonzero(pc.kind == KIND_NURBS)[0]
@@ -116,6 +121,15 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable]) -> Samples:
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])
     j = np.arange(len(piece)) - np.repeat(first, counts)
     sigma = pc.length[piece] * j / n_int[piece]
+    gap = (pc.kind != KIND_NURBS) & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
+    if gap.any():
+        g = np.nonzero(gap)[0]
+        piece = np.concatenate([piece, g, g])
+        sigma = np.concatenate([sigma, np.full(len(g), end_gap_mm), pc.length[g] - end_gap_mm])
+        order = np.lexsort((sigma, piece))
+        piece, sigma = piece[order], sigma[order]
+        counts = np.bincount(piece, minlength=len(pc))
+        first = np.concatenate([[0], np.cumsum(counts)[:-1]])
     t, kv = frame(pc, piece, sigma)
     for i in nurbs_idx:
         tab = tables[int(pc.nurbs[i])]
