@@ -1,0 +1,150 @@
+"""Benchmark of the grbl link through the grbl TEST DOUBLE (tests/grbl_emulator.py), and
+of NURBS programs turned into G1 segments by vcnc's IPO.
+
+1. Throughput over a pty pair with no drain limit (the double's planner empties at
+   once): lines/s and bytes/s of character counting, against the same lines sent
+   call-and-response (one line, wait for its ok) in the same run. RX-buffer fill is
+   the link's count of unanswered bytes after each send (what character counting
+   keeps below 127), mean and min over the run's middle (first and last 20 lines
+   left out); the double's own peak RX fill is printed next to it.
+2. For each NURBS program: G1 segments sent against the NURBS blocks in the source,
+   and the largest distance from the exact curve (dense samples, 200 per segment)
+   to the polyline sent, against the machine's chord tolerance.
+
+Usage: python bench/stream.py
+"""
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from grbl_emulator import GrblDouble, PtyServer  # noqa: E402
+from ipo.config import default_config  # noqa: E402
+from ipo.nurbs import curve_points  # noqa: E402
+from ipr import parse_file  # noqa: E402
+from ipr.entities import Line, Nurbs, Rapid  # noqa: E402
+from machine.grbl.ledger import Ledger  # noqa: E402
+from machine.grbl.link import GrblLink  # noqa: E402
+from machine.grbl.program import stream_lines  # noqa: E402
+
+CFG = default_config()
+CORPUS = ROOT.parent / "shared" / "corpus" / "linuxcnc"
+
+
+def _zigzag(n: int):
+    ents, p = [Rapid(1, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0))], (0.0, 0.0, 1.0)
+    for i in range(n):
+        q = (round(0.01 * (i + 1), 4), round(12.3456 * (i % 2), 4), -0.5)
+        ents.append(Line(i + 2, p, q, 25.0))
+        p = q
+    return list(stream_lines(ents, CFG))
+
+
+def _call_and_response(link: GrblLink, lines) -> float:
+    t0 = time.perf_counter()
+    for line in lines:
+        link.command(line.text)
+    return time.perf_counter() - t0
+
+
+def throughput(n_lines: int = 4000) -> None:
+    lines = _zigzag(n_lines)
+    n_bytes = sum(len(l.text) + 1 for l in lines)
+    double = GrblDouble(drain_s_per_block=0.0)
+    with PtyServer(double).start() as srv:
+        link = GrblLink(srv.port, poll_interval_s=0.2, settle_s=0.05)
+        link.connect(CFG)
+        t0 = time.perf_counter()
+        res = link.stream(lines, Ledger(1))
+        t_count = time.perf_counter() - t0
+        assert res.completed, res.fault
+        ref_lines = lines[: n_lines // 4]
+        t_ref = _call_and_response(link, ref_lines)
+        link.close()
+    fill = np.array(res.rx_fill[20:-20])
+    ref_rate = len(ref_lines) / t_ref
+    print(f"grbl test double over a pty, no drain limit, {len(lines)} lines, {n_bytes} bytes "
+          f"(mean {n_bytes / len(lines):.1f} bytes/line)")
+    print(f"  character counting : {len(lines) / t_count:9.0f} lines/s  {n_bytes / t_count:10.0f} bytes/s")
+    print(f"  call-and-response  : {ref_rate:9.0f} lines/s  (reference, same run, {len(ref_lines)} lines)")
+    print(f"  ratio              : {len(lines) / t_count / ref_rate:9.2f} x")
+    print(f"  RX fill (unanswered bytes after each send): mean {fill.mean():.1f}, min {fill.min()}, "
+          f"max {fill.max()} of 127; the double's peak RX fill {double.max_rx_fill}, overflow {double.rx_overflow}")
+
+
+def _nurbs_blocks(source: list[str], first: int, last: int) -> int:
+    """Non-blank, non-comment source lines from the group's first line to before `last`."""
+    count = 0
+    for text in source[first - 1: last - 1]:
+        t = text.split(";")[0].strip()
+        while "(" in t and ")" in t:
+            t = (t[: t.index("(")] + t[t.index(")") + 1:]).strip()
+        count += bool(t)
+    return count
+
+
+def _deviation(e: Nurbs, poly: np.ndarray) -> float:
+    """Largest distance from the exact curve to the polyline: dense curve samples, each
+    measured against the segments around its nearest vertex."""
+    n_seg = len(poly) - 1
+    u = np.linspace(e.knots[0], e.knots[-1], 200 * n_seg + 1)
+    c = curve_points(e.degree, e.knots, e.weights, e.points, u)
+    a, b = poly[:-1], poly[1:]
+    # each sample's segment: samples are in curve order, so assign by the nearest vertex index, monotone
+    d_vert = np.empty(len(c), dtype=np.int64)
+    j = 0
+    for i in range(len(c)):
+        while j + 1 < len(poly) and np.sum((poly[j + 1] - c[i]) ** 2) <= np.sum((poly[j] - c[i]) ** 2):
+            j += 1
+        d_vert[i] = j
+    worst = 0.0
+    for k in (-1, 0):
+        s = np.clip(d_vert + k, 0, n_seg - 1)
+        ab = b[s] - a[s]
+        t = np.clip(np.einsum("ij,ij->i", c - a[s], ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300), 0, 1)
+        dist = np.linalg.norm(a[s] + t[:, None] * ab - c, axis=1)
+        worst = dist if k == -1 else np.minimum(worst, dist)
+    return float(np.max(worst))
+
+
+def nurbs_programs() -> None:
+    progs = [ROOT / "programs" / "demo.nc", CORPUS / "g6_farfalla.ngc"]
+    print(f"NURBS through vcnc's IPO to G1 segments (chord tolerance {CFG.chord_tol_mm * 1e3:.1f} um, "
+          f"BLU {CFG.blu_mm * 1e3:.1f} um, period {CFG.period_s * 1e3:.1f} ms)")
+    for path in progs:
+        if not path.exists():
+            print(f"  {path.name}: not found (corpus absent), skipped")
+            continue
+        prog = parse_file(path)
+        t0 = time.perf_counter()
+        lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True))
+        t_gen = time.perf_counter() - t0
+        source = path.read_text().splitlines()
+        ents = prog.entities
+        for i, e in enumerate(ents):
+            if not isinstance(e, Nurbs):
+                continue
+            nxt = next((x.line for x in ents[i + 1:] if x.line > e.line), len(source) + 1)
+            blocks = _nurbs_blocks(source, e.line, nxt)
+            segs = [l for l in lines if l.source_line == e.line and l.motion]
+            poly = np.array([segs[0].start_mm] + [l.end_mm for l in segs])
+            dev = _deviation(e, poly)
+            feeds = np.array([float(l.text.rsplit("F", 1)[1]) for l in segs])
+            length = float(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
+            print(f"  {path.name} line {e.line}: {len(segs)} G1 segments for {blocks} NURBS blocks "
+                  f"({len(e.points)} control points, degree {e.degree}, {length:.1f} mm, mean segment "
+                  f"{length / len(segs) * 1e3:.0f} um); max deviation from the exact curve "
+                  f"{dev * 1e3:.2f} um; F {feeds.min():.0f}..{feeds.max():.0f} mm/min "
+                  f"(programmed {e.feed_mm_s * 60:.0f})")
+        print(f"  {path.name}: {len(lines)} stream lines generated in {t_gen:.2f} s")
+
+
+if __name__ == "__main__":
+    throughput()
+    nurbs_programs()
