@@ -5,7 +5,7 @@
     for entity in iter_entities(open("big.nc"), "big.nc"):   # streaming, bounded memory
         ...
 
-Errors raise ipr.entities.GCodeError, whose `diagnostics` print as
+Lines are split at "\n" only ("\r" is a blank). Errors raise ipr.entities.GCodeError, whose `diagnostics` print as
 `file:line:col: error[CODE]: message` (codes: ipr/errors.py, docs/gcode-errors.md).
 
 Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar
@@ -60,12 +60,18 @@ def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool)
 def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
                all_errors: bool = False) -> Program:
     """Interpret a whole program; raises GCodeError with the first error (or all of them)."""
-    return _run(text.splitlines(), file, setup, all_errors)
+    return _run(text.split("\n"), file, setup, all_errors)
+
+
+def _file_lines(path) -> Iterator[str]:
+    """The file's lines, split at "\n" only (as parse_text does); undecodable bytes replaced."""
+    with open(path, "rb") as f:
+        for raw in f:
+            yield raw.decode("utf-8", "replace")
 
 
 def parse_file(path, *, setup: Setup | None = None, all_errors: bool = False) -> Program:
-    with open(path, encoding="utf-8", errors="replace") as f:
-        return _run(f, str(path), setup, all_errors)
+    return _run(_file_lines(path), str(path), setup, all_errors)
 
 
 def iter_entities(lines: Iterable[str], file: str = "<string>", *,

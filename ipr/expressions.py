@@ -109,16 +109,25 @@ def evaluate(node, params: dict) -> float:
     """The value of an expression tree; raises BlockError(E-EXPR / E-PARAM)."""
     if isinstance(node, float):
         return node
+    value = _evaluate(node, params)
+    if not math.isfinite(value):
+        raise BlockError("E-EXPR", "expression has no finite value")
+    return value
+
+
+def _evaluate(node, params: dict) -> float:
+    if isinstance(node, float):
+        return node
     head = node[0]
     if head == "#":
         return read_param(node[1], params)
     if head == "neg":
-        return -evaluate(node[1], params)
+        return -_evaluate(node[1], params)
     if head == "atan":
-        return math.degrees(math.atan2(evaluate(node[1], params), evaluate(node[2], params)))
+        return math.degrees(math.atan2(_evaluate(node[1], params), _evaluate(node[2], params)))
     if len(node) == 2:
-        return _unary(head, evaluate(node[1], params))
-    value = _binary(head, evaluate(node[1], params), evaluate(node[2], params))
+        return _unary(head, _evaluate(node[1], params))
+    value = _binary(head, _evaluate(node[1], params), _evaluate(node[2], params))
     if not math.isfinite(value):
-        raise BlockError("E-EXPR", "expression overflows")
+        raise BlockError("E-EXPR", f"{node[0].upper()} overflows")
     return value

@@ -18,6 +18,14 @@ from ipr.modal import INCH_MM, ModalState, Setup, Staged
 from ipr.syntax import LineSyntaxError, parse_line_columns, split_parts, template_for
 
 _PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
+MAX_VALUE = 1e30   # the fast path reads at most 30 digits; expressions may go further
+
+
+def spec_letter(spec: BlockSpec, word: int) -> str:
+    for letter, i in spec.index.items():
+        if i == word:
+            return letter
+    return "G/M"
 
 
 def target(st, spec: BlockSpec, vals, base, machine: bool = False):
@@ -162,11 +170,12 @@ class Interpreter:
         """G0/G1 with only axis words, F and N: same checks as _execute, less overhead."""
         s = self.state
         _, axis_parts, f_part = fast
-        feed_value = s.feed_value
+        feed_mm_s = s.feed_mm_s
         if f_part is not None:
-            feed_value = float(parts[f_part])
-            if feed_value < 0.0:
-                raise BlockError("E-VALUE", f"negative feed rate F{feed_value:g}", col=_col(parts, f_part))
+            f = float(parts[f_part])
+            if f < 0.0:
+                raise BlockError("E-VALUE", f"negative feed rate F{f:g}", col=_col(parts, f_part))
+            feed_mm_s = f * s.unit / 60.0
         if axis_parts:
             pos = s.pos
             end = list(pos)
@@ -180,7 +189,6 @@ class Interpreter:
                     end[k] += float(parts[p]) * unit
             end = tuple(end)
             if motion == 10:
-                feed_mm_s = feed_value * unit / 60.0
                 if feed_mm_s <= 0.0:
                     raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
                                      col=_col(parts, axis_parts[0][1]))
@@ -188,7 +196,7 @@ class Interpreter:
             else:
                 self.out.append(Rapid(line, pos, end, s.path))
             s.pos = end
-        s.feed_value = feed_value
+        s.feed_mm_s = feed_mm_s
         s.motion = motion
 
     # ---- the general path ---------------------------------------------------------
@@ -197,6 +205,9 @@ class Interpreter:
         err = spec.check_usage(base.motion)
         if err is not None:
             raise err
+        for i, v in enumerate(vals):
+            if not -MAX_VALUE < v < MAX_VALUE:
+                raise BlockError("E-VALUE", f"{spec_letter(spec, i)} value {v:g} is out of range", i)
         st = Staged(base)
         out: list = [Message(line, m) for m in messages]
         notices: list = []
@@ -216,7 +227,7 @@ class Interpreter:
         if "F" in idx:
             if vals[idx["F"]] < 0.0:
                 raise BlockError("E-VALUE", f"negative feed rate F{vals[idx['F']]:g}", idx["F"])
-            st.feed_value = vals[idx["F"]]
+            st.feed_mm_s = vals[idx["F"]] * st.unit / 60.0  # before a G20/G21 of this block
         self._spindle_tool(st, spec, vals, out, notices, line)
         if g.get("nonmodal") == 40:
             p = vals[idx["P"]]
@@ -340,7 +351,7 @@ class Interpreter:
         if motion == 0:
             out.append(Rapid(line, st.pos, end, st.path))
         else:
-            feed_mm_s = st.feed_value * st.unit / 60.0
+            feed_mm_s = st.feed_mm_s
             if feed_mm_s <= 0.0:
                 word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
                 raise BlockError("E-FEED-ZERO", f"feed move with feed rate zero (program an F word)", word)

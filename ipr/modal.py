@@ -37,11 +37,12 @@ class ModalState:
     """Everything a block may read or change. Positions are machine mm.
 
     `offset` is the sum program -> machine: work offset + G92 offset + tool length (Z).
-    `feed_value` is the F number as programmed: like RS274NGC, it is read in the units
-    active when a move uses it.
+    `feed_mm_s` is the programmed feed: F is read in the units active before the block's
+    own G20/G21 (RS274NGC executes F before the units change), and a later change of
+    units keeps the feed's speed, as LinuxCNC does.
     """
 
-    __slots__ = ("pos", "unit", "absolute", "arc_absolute", "plane", "motion", "feed_value",
+    __slots__ = ("pos", "unit", "absolute", "arc_absolute", "plane", "motion", "feed_mm_s",
                  "path", "coord", "coord_offset", "g92", "tool_offset", "offset", "tool_selected",
                  "tool_in_spindle", "spindle_rpm", "spindle_dir", "mist", "flood", "nurbs",
                  "params", "ended")
@@ -53,7 +54,7 @@ class ModalState:
         self.arc_absolute = False
         self.plane = "XY"
         self.motion: int | None = None
-        self.feed_value = 0.0
+        self.feed_mm_s = 0.0
         self.path: PathControl = CONTINUOUS
         self.coord = 540
         self.coord_offset = setup.work_offset(540)

@@ -41,7 +41,7 @@ def _check_g52_axes(st, spec, group_line: int | None) -> bool:
 def start_group(st, spec, vals, line: int, target, notices: list) -> None:
     """A block whose motion is G6.2 or G5.2 while no group is open."""
     kind = spec.g.get("motion", st.motion)
-    feed_mm_s = st.feed_value * st.unit / 60.0
+    feed_mm_s = st.feed_mm_s
     where = spec.where.get("motion")
     if feed_mm_s <= 0.0:
         raise BlockError("E-FEED-ZERO", "NURBS move with feed rate zero (program an F word)", where)

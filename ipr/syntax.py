@@ -12,13 +12,13 @@ number) take the full grammar. tests/test_ipr_props.py checks the two agree.
 """
 from __future__ import annotations
 
+import math
 import re
 from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
 from lark import Lark, Token, Transformer, UnexpectedCharacters, UnexpectedInput, UnexpectedToken
-from lark.exceptions import VisitError
 
 
 class Block(NamedTuple):
@@ -48,11 +48,26 @@ class LineSyntaxError(Exception):
         self.message = message
 
 
+MAX_DIGITS = 30   # longer numbers take the full grammar, which rejects non-finite ones
+
+
+class _NumberTooLarge(Exception):
+    def __init__(self, token: Token):
+        self.token = token
+
+
+def _to_float(token: Token) -> float:
+    value = float(token.replace(" ", "").replace("\t", ""))
+    if not math.isfinite(value):
+        raise _NumberTooLarge(token)
+    return value
+
+
 class _ToBlock(Transformer):
-    """Builds Block and, in parallel, the 1-based column of every word and assignment."""
+    """Builds Block and, in parallel, the 1-based column of every word."""
 
     def number(self, items):
-        return float(items[0].replace(" ", "").replace("\t", ""))
+        return _to_float(items[0])
 
     def neg(self, items):
         v = items[-1]
@@ -72,7 +87,7 @@ class _ToBlock(Transformer):
         return (op.lower(), a, b)
 
     def param_number(self, items):
-        n = float(items[-1].replace(" ", "").replace("\t", ""))
+        n = _to_float(items[-1])
         return ("#", int(n) if n.is_integer() else n)
 
     def param_name(self, items):
@@ -139,8 +154,8 @@ def parse_line_columns(text: str) -> tuple[Block, tuple[int, ...]]:
         raise LineSyntaxError(tok.column, f"unexpected {str(tok)!r}") from None
     except UnexpectedInput as e:
         raise LineSyntaxError(getattr(e, "column", 1) or 1, "syntax error") from None
-    except VisitError as e:  # a number the transformer cannot convert
-        raise LineSyntaxError(1, f"syntax error: {e.orig_exc}") from None
+    except _NumberTooLarge as e:  # raised by the transformer, which runs inside the parse
+        raise LineSyntaxError(e.token.column, f"number {str(e.token)[:20]}... is too large") from None
 
 
 def parse_line_full(text: str) -> Block:
@@ -150,7 +165,7 @@ def parse_line_full(text: str) -> Block:
 
 # Numbers directly after a letter other than G/M become slots; G and M numbers stay in
 # the shape because they select the codes.
-_SLOT = re.compile(r"(?<=[A-FH-LN-Za-fh-ln-z])([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
+_SLOT = re.compile(r"(?<=[A-FH-LN-Za-fh-ln-z])([-+]?(?:[0-9]{1,30}(?:\.[0-9]{0,30})?|\.[0-9]{1,30}))(?![0-9])")
 _SIMPLE_SHAPE = re.compile(r"[ \t]*(?:/[ \t]*)?(?:(?:[GMgm](?:[0-9]+\.?[0-9]*|\.[0-9]+)|[A-FH-LN-Za-fh-ln-z]\x00)[ \t]*)*\r?\n?")
 _SHAPE_CACHE_MAX = 4096
 
