@@ -14,9 +14,19 @@ import numpy as np
 
 from ipo.reference_pulse import pulse_deviation_blu, pulse_path, pulses
 from ipo.steppers import make_stepper
-from ipr.entities import MOTION_TYPES, Nurbs
+from ipr.entities import MOTION_TYPES, Arc, Nurbs
 
-CHUNK = 1 << 14  # periods per advance call
+CHUNK = 1 << 16  # most periods per advance call
+
+
+def _length_bound_mm(e) -> float:
+    """An upper bound on the path length: sizes the first chunk so one call usually suffices."""
+    if isinstance(e, Nurbs):
+        return float(np.linalg.norm(np.diff(e.points, axis=0), axis=1).sum())
+    chord = float(np.linalg.norm(np.subtract(e.end, e.start)))
+    if isinstance(e, Arc):
+        return abs(e.sweep_rad) * (e.radius_mm + chord) + chord
+    return chord
 
 
 @dataclass(slots=True)
@@ -28,6 +38,7 @@ class ChordStudy:
     startup_evals: np.ndarray  # start-up evaluations of each NURBS entity
     steps: int  # periods in total
     seconds: float  # wall time of the stepping alone
+    stalls: int  # periods before an entity's end whose parameter did not move forward
 
     @property
     def max_dev_pct(self) -> float:
@@ -52,7 +63,7 @@ class ChordStudy:
 
 def _step_entity(entity, step_mm: float, options: dict):
     stepper = make_stepper(entity, **options)
-    steps = np.full(CHUNK, step_mm)
+    steps = np.full(min(CHUNK, int(_length_bound_mm(entity) / step_mm) + 2), step_mm)
     parts = []
     while not stepper.done:
         parts.append(stepper.advance(steps))
@@ -69,14 +80,13 @@ def study(entities, step_mm: float, **options) -> ChordStudy:
     motions = [e for e in entities if isinstance(e, MOTION_TYPES)]
     if not motions:
         raise ValueError("no motion to interpolate")
-    warm = next((e for e in motions if isinstance(e, Nurbs)), None)
-    if warm is not None:  # compile the kernels outside the timed loop
-        make_stepper(warm, **options).advance(np.full(2, step_mm))
+    for kind in {type(e) for e in motions}:  # load the compiled kernels outside the timed loop
+        make_stepper(next(e for e in motions if type(e) is kind), **options).advance(np.full(2, step_mm))
     pos_parts = [np.asarray(motions[0].start, dtype=float)[None, :]]
     u_parts = [np.array([0.0 if not isinstance(motions[0], Nurbs) else float(motions[0].knots[0])])]
     devs, nurbs_evals, startup = [], [], []
     seconds = 0.0
-    steps = 0
+    steps = stalls = 0
     for e in motions:
         t0 = time.perf_counter()
         pos, u, evals, s_evals = _step_entity(e, step_mm, options)
@@ -85,6 +95,8 @@ def study(entities, step_mm: float, **options) -> ChordStudy:
         path = np.vstack([np.asarray(e.start, dtype=float)[None, :], pos])
         chords = np.linalg.norm(np.diff(path, axis=0), axis=1)[:-1]
         devs.append(chords / step_mm - 1.0)
+        u0 = float(e.knots[0]) if isinstance(e, Nurbs) else 0.0
+        stalls += int((np.diff(np.r_[u0, u])[:-1] <= 0).sum())
         if isinstance(e, Nurbs):
             nurbs_evals.append(evals)
             startup.append(s_evals)
@@ -92,7 +104,7 @@ def study(entities, step_mm: float, **options) -> ChordStudy:
         u_parts.append(u)
     return ChordStudy(np.vstack(pos_parts), np.concatenate(u_parts), np.concatenate(devs),
                       np.concatenate(nurbs_evals) if nurbs_evals else np.zeros(0, dtype=np.int64),
-                      np.array(startup, dtype=np.int64), steps, seconds)
+                      np.array(startup, dtype=np.int64), steps, seconds, stalls)
 
 
 def pulse_study(entities, blu_mm: float, path_mm: np.ndarray) -> float:
