@@ -21,6 +21,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from ipo.period import PeriodBatch
 from machine.servo import ServoModel
@@ -99,18 +100,69 @@ class DriveStats:
     jerk_violations: int = 0
 
 
-def chord_errors_mm(p_mm: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def _sagitta(p, i):
+    """Sagitta of the chord p[i]→p[i+1] on the circle through p[i], p[i+1], p[i+2] (0 if collinear)."""
+    ax, ay, az = p[i + 1, 0] - p[i, 0], p[i + 1, 1] - p[i, 1], p[i + 1, 2] - p[i, 2]
+    bx, by, bz = p[i + 2, 0] - p[i + 1, 0], p[i + 2, 1] - p[i + 1, 1], p[i + 2, 2] - p[i + 1, 2]
+    cx, cy, cz = ax + bx, ay + by, az + bz
+    la = math.sqrt(ax * ax + ay * ay + az * az)
+    lb = math.sqrt(bx * bx + by * by + bz * bz)
+    lc = math.sqrt(cx * cx + cy * cy + cz * cz)
+    ux, uy, uz = ay * cz - az * cy, az * cx - ax * cz, ax * cy - ay * cx
+    area2 = math.sqrt(ux * ux + uy * uy + uz * uz)  # twice the triangle's area
+    if area2 == 0.0 or la == 0.0 or lb == 0.0:
+        return 0.0
+    rho = la * lb * lc / (2.0 * area2)  # circumradius
+    return rho - math.sqrt(max(rho * rho - 0.25 * la * la, 0.0))
+
+
+@njit(cache=True)
+def chord_errors_mm(p_mm):
     """Sagitta of each chord p[k]→p[k+1] on the circle through p[k], p[k+1], p[k+2]; (N-2,)."""
-    a = p_mm[1:-1] - p_mm[:-2]
-    b = p_mm[2:] - p_mm[1:-1]
-    c = p_mm[2:] - p_mm[:-2]
-    la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
-    area2 = np.linalg.norm(np.cross(a, c), axis=1)  # twice the triangle's area
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rho = la * lb * lc / (2.0 * area2)  # circumradius
-        half = 0.5 * la
-        sag = rho - np.sqrt(np.maximum(rho * rho - half * half, 0.0))
-    return np.where((area2 > 0) & (la > 0) & (lb > 0), sag, 0.0)
+    out = np.zeros(max(0, p_mm.shape[0] - 2))
+    for i in range(out.shape[0]):
+        out[i] = _sagitta(p_mm, i)
+    return out
+
+
+@njit(cache=True)
+def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, check_jerk, peak, counts):
+    """One pass over the positions ext (BLU; the first `old` rows measured before).
+
+    peak: [path length, velocity x3, acceleration x3, jerk x3, chord error] (updated);
+    counts: velocity, acceleration, jerk violations (updated).
+    """
+    m = ext.shape[0]
+    ht = h * period_s
+    v_tol, a_tol, j_tol = blu / period_s, 2.0 * blu / ht**2, 4.0 * blu / ht**3  # rounding: 0.5 BLU a position
+    p = np.empty((3, 3))
+    for i in range(max(old, 1), m):
+        d2 = 0.0
+        bad_v = bad_a = bad_j = False
+        for a in range(3):
+            d = ext[i, a] - ext[i - 1, a]
+            d2 += float(d * d)
+            v = abs(d) * blu / period_s
+            peak[1 + a] = max(peak[1 + a], v)
+            bad_v |= v > vlim[a] + v_tol + 1e-9
+            if i >= 2 * h:
+                acc = abs(ext[i, a] - 2 * ext[i - h, a] + ext[i - 2 * h, a]) * blu / ht**2
+                peak[4 + a] = max(peak[4 + a], acc)
+                bad_a |= acc > alim[a] + a_tol + 1e-9
+            if i >= 3 * h:
+                jerk = abs(ext[i, a] - 3 * ext[i - h, a] + 3 * ext[i - 2 * h, a] - ext[i - 3 * h, a]) * blu / ht**3
+                peak[7 + a] = max(peak[7 + a], jerk)
+                bad_j |= check_jerk and jerk > jlim[a] + j_tol + 1e-9
+        peak[0] += math.sqrt(d2) * blu
+        counts[0] += bad_v
+        counts[1] += bad_a
+        counts[2] += bad_j
+        if i >= 2:
+            for r in range(3):
+                for a in range(3):
+                    p[r, a] = ext[i - 2 + r, a] * blu
+            peak[10] = max(peak[10], _sagitta(p, 0))
 
 
 class Drive:
@@ -126,8 +178,9 @@ class Drive:
         self.line = 0
         self.feed_mm_s = 0.0
         self._h = limits.stencil_periods()
-        self._tail = self.position_blu[None, :].copy()  # last 3h+? positions, for the stencils
-        self._tail_mm = self._tail * limits.blu_mm  # last two commanded points, for the chord error
+        self._tail = self.position_blu[None, :].copy()  # the last positions the stencils reach back to
+        self._peak = np.zeros(11)
+        self._counts = np.zeros(3, np.int64)
         self._lo = np.ceil(limits.min_mm / limits.blu_mm - 1e-9).astype(np.int64)
         self._hi = np.floor(limits.max_mm / limits.blu_mm + 1e-9).astype(np.int64)
 
@@ -163,7 +216,7 @@ class Drive:
             raise CommandMismatchError(
                 f"line {int(batch.line[k])}: batch pos_mm {batch.pos_mm[k]} is not the integrated "
                 f"position {cmd_mm[k]} (BLU {blu} mm)")
-        self._measure(inc, pos, cmd_mm)
+        self._measure(pos)
         rows = {"t_s": self.t_s + self.limits.period_s * np.arange(1, n + 1), "pos_mm": cmd_mm,
                 "inc_blu": inc, "feed_mm_s": batch.feed_mm_s, "limit": batch.limit, "line": batch.line}
         if self.servo is not None:
@@ -178,31 +231,14 @@ class Drive:
         self.line = int(batch.line[-1])
         self.feed_mm_s = float(batch.feed_mm_s[-1])
 
-    def _measure(self, inc: np.ndarray, pos: np.ndarray, cmd_mm: np.ndarray) -> None:
-        lim, st, h = self.limits, self.stats, self._h
-        blu, T = lim.blu_mm, lim.period_s
-        st.path_length_mm += float(np.linalg.norm(inc * blu, axis=1).sum())
-        vel = np.abs(inc).max(axis=0) * blu / T
-        st.max_velocity_mm_s = np.maximum(st.max_velocity_mm_s, vel)
-        st.velocity_violations += int((np.abs(inc) * blu / T > lim.max_velocity_mm_s + blu / T + 1e-9)
-                                      .any(axis=1).sum())
+    def _measure(self, pos: np.ndarray) -> None:
+        lim, h = self.limits, self._h
         ext = np.concatenate((self._tail, pos))
-        hT = h * T
-        old = len(self._tail)  # stencils lying wholly in the tail were measured with the last batch
-        if len(ext) > 2 * h:
-            acc = np.abs(ext[2 * h:] - 2 * ext[h:-h] + ext[:-2 * h])[max(0, old - 2 * h):] * blu / hT**2
-            st.max_accel_mm_s2 = np.maximum(st.max_accel_mm_s2, acc.max(axis=0))
-            tol = 2 * blu / hT**2  # rounding of three positions by <= 0.5 BLU each
-            st.accel_violations += int((acc > lim.max_accel_mm_s2 + tol + 1e-9).any(axis=1).sum())
-        if len(ext) > 3 * h:
-            jerk = (np.abs(ext[3 * h:] - 3 * ext[2 * h:-h] + 3 * ext[h:-2 * h] - ext[:-3 * h])
-                    [max(0, old - 3 * h):] * blu / hT**3)
-            st.max_jerk_mm_s3 = np.maximum(st.max_jerk_mm_s3, jerk.max(axis=0))
-            if lim.check_jerk:
-                tol = 4 * blu / hT**3
-                st.jerk_violations += int((jerk > lim.max_jerk_mm_s3 + tol + 1e-9).any(axis=1).sum())
-        self._tail = ext[-3 * h:].copy()
-        pts = np.concatenate((self._tail_mm, cmd_mm))
-        if len(pts) >= 3:
-            st.max_chord_error_mm = max(st.max_chord_error_mm, float(chord_errors_mm(pts).max(initial=0.0)))
-        self._tail_mm = pts[-2:].copy()
+        _measure(ext, len(self._tail), h, lim.blu_mm, lim.period_s, lim.max_velocity_mm_s, lim.max_accel_mm_s2,
+                 lim.max_jerk_mm_s3, lim.check_jerk, self._peak, self._counts)
+        self._tail = ext[-max(3 * h, 2):].copy()
+        st = self.stats
+        st.path_length_mm = float(self._peak[0])
+        st.max_velocity_mm_s, st.max_accel_mm_s2 = self._peak[1:4].copy(), self._peak[4:7].copy()
+        st.max_jerk_mm_s3, st.max_chord_error_mm = self._peak[7:10].copy(), float(self._peak[10])
+        st.velocity_violations, st.accel_violations, st.jerk_violations = (int(c) for c in self._counts)
