@@ -32,6 +32,7 @@ class Piece:
     fit: RationalFit | None
     deviation_mm: float  # checked max deviation of the fit (0 for G01)
     reason: str = ""  # why a piece stayed G01
+    kept: np.ndarray | None = None  # vertex indices the fit was made on (repeated vertices dropped)
 
 
 def _point_segment_dist(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -153,7 +154,7 @@ def _fit_range(q: np.ndarray, first: int, last: int, s: FitSettings,
         whole = [Piece(first, last, None, 0.0, "no fit within tolerance saves blocks")]
         whole_blocks = g01_blocks
     else:
-        whole = [Piece(first, last, fit, max_deviation(fit, sub[idx]))]
+        whole = [Piece(first, last, fit, max_deviation(fit, sub[idx]), kept=first + idx)]
         whole_blocks = blocks(len(fit.points))
     n = last - first
     if n < 4 * (s.degree + 2) or whole_blocks <= 2 * blocks(s.degree + 1):

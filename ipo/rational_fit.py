@@ -181,7 +181,9 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
                 break
         history.append(f_l)
     _, wp, w, u = best
-    return RationalFit(degree, knots, w, wp / w[:, None], u, np.array(history), converged)
+    points = wp / w[:, None]
+    points[0], points[-1] = q[0], q[-1]  # pinned: exact, not WP/w rounded
+    return RationalFit(degree, knots, w, points, u, np.array(history), converged)
 
 
 def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:

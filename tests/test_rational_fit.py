@@ -1,0 +1,161 @@
+"""001 rational B-spline approximation and the tolerance-driven fit, against analytic curves,
+brute-force distances and geomdl's non-rational least squares."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from ipo.fit_tolerance import FitSettings, fewest_ctrl, fit_polyline, max_deviation
+from ipo.rational_fit import basis_matrix, evaluate, fit_rational, uniform_knots
+
+
+def _arc(radius, a0, a1, n, z=0.0):
+    t = np.linspace(a0, a1, n)
+    return np.c_[radius * np.cos(t), radius * np.sin(t), np.full(n, z)]
+
+
+def _point_to_polyline(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Exact distance from each point to a polyline, by brute force over all segments."""
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    len2 = np.maximum(np.einsum("sd,sd->s", ab, ab), 1e-300)
+    out = []
+    for chunk in np.array_split(pts, max(1, len(pts) // 200)):
+        t = np.clip(np.einsum("psd,sd->ps", chunk[:, None, :] - a[None], ab) / len2, 0, 1)
+        foot = a[None] + t[..., None] * ab[None]
+        out.append(np.linalg.norm(chunk[:, None, :] - foot, axis=2).min(axis=1))
+    return np.concatenate(out)
+
+
+def _brute_two_way(curve_pts: np.ndarray, q: np.ndarray) -> float:
+    """Hausdorff distance between a densely sampled curve (its fine polyline: sagitta < 1e-7 mm
+    in these tests) and the polyline q, both ways, brute force."""
+    seg_t = np.linspace(0, 1, 50)
+    poly = (q[:-1, None, :] + seg_t[None, :, None] * np.diff(q, axis=0)[:, None, :]).reshape(-1, q.shape[1])
+    return float(max(_point_to_polyline(curve_pts, q).max(), _point_to_polyline(poly, curve_pts).max()))
+
+
+def test_uniform_knots_match_001_range():
+    # 001: m control points, order k, parameter range [0, n - k + 2] with n = m - 1
+    kn = uniform_knots(8, 3)
+    assert kn.tolist() == [0, 0, 0, 0, 1, 2, 3, 4, 5, 5, 5, 5]
+
+
+def test_basis_matrix_partition_of_unity_and_shape():
+    u = np.linspace(0, 5, 37)
+    n_mat = basis_matrix(uniform_knots(8, 3), 3, u, 8)
+    assert n_mat.shape == (37, 8)
+    assert np.allclose(n_mat.sum(axis=1), 1.0)
+    assert n_mat[0, 0] == 1.0 and n_mat[-1, -1] == 1.0
+
+
+def test_quarter_circle_recovers_the_exact_conic():
+    # a quarter circle is a rational quadratic with weights (1, cos 45°, 1) and corner control point
+    q = _arc(1.0, 0.0, np.pi / 2, 40)[:, :2]
+    fit = fit_rational(q, 3, 2, max_iter=200, rel_delta=1e-7)
+    dense = evaluate(fit, np.linspace(0, fit.knots[-1], 2001))
+    assert np.abs(np.linalg.norm(dense, axis=1) - 1.0).max() < 3e-4
+    assert fit.weights[1] == pytest.approx(np.sqrt(0.5), abs=5e-3)
+    assert np.allclose(fit.points[1], [1.0, 1.0], atol=5e-3)
+
+
+def test_ends_are_pinned_exactly():
+    q = _arc(7.0, 0.3, 2.5, 60, z=1.5)
+    fit = fit_rational(q, 6, 3)
+    ends = evaluate(fit, np.array([0.0, fit.knots[-1]]))
+    assert np.array_equal(fit.points[0], q[0]) and np.array_equal(fit.points[-1], q[-1])
+    assert np.allclose(ends, q[[0, -1]], atol=1e-12, rtol=0)
+
+
+def test_001_figure_14_points_8_control_points_rms_decreases():
+    # 001 Fig. 3: 14 digitised points of a section curve, 8 control points
+    rng = np.random.default_rng(7)
+    x = np.linspace(0.0, 130.0, 14)
+    q = np.c_[x, 20 * np.sin(x / 130 * np.pi) ** 2 + 8 * np.exp(-((x - 90) / 15) ** 2), 5 + 0.02 * x]
+    q += rng.normal(0.0, 0.05, q.shape)
+    fit = fit_rational(q, 8, 3, max_iter=30, rel_delta=1e-4)
+    hist = fit.rms_history
+    assert len(hist) >= 10
+    assert np.all(np.diff(hist) < 0), hist
+    assert hist[-1] < 0.3 * hist[0]
+    assert np.all(fit.weights > 0) and fit.weights.max() == pytest.approx(1.0)
+    # f_l is the RMS of the distances from the data to C(u_j) (001 App. I step 5)
+    err = q - evaluate(fit, fit.params)
+    assert np.sqrt(np.sum(err**2) / 13) == pytest.approx(hist.min(), rel=1e-9)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), n_ctrl=st.integers(4, 9))
+def test_weights_stay_positive_with_fixed_scale(seed, n_ctrl):
+    rng = np.random.default_rng(seed)
+    q = np.cumsum(rng.normal(0, 1, (40, 3)), axis=0)  # a rough random walk: the worst case for weights
+    fit = fit_rational(q, n_ctrl, 3, max_iter=12)
+    assert np.all(fit.weights > 0)
+    assert fit.weights.max() == pytest.approx(1.0)
+    assert np.all(np.isfinite(fit.points))
+
+
+def test_max_deviation_is_a_tight_upper_bound_of_brute_force():
+    q = _arc(20.0, 0.0, 1.2, 80) + np.c_[np.zeros(80), np.zeros(80), np.linspace(0, 2, 80)]
+    fit = fit_rational(q, 6, 3)
+    dense = evaluate(fit, np.linspace(0, fit.knots[-1], 6001))
+    brute = _brute_two_way(dense, q)
+    checked = max_deviation(fit, q)
+    assert brute - 1e-9 <= checked <= brute * 1.02 + 1e-9
+
+
+@pytest.mark.parametrize("tol_mm", [0.001, 0.01])
+def test_ellipse_polyline_fit_stays_within_tolerance_of_polyline_and_ellipse(tol_mm):
+    t = np.linspace(0.0, 1.5 * np.pi, 240)
+    q = np.c_[12 * np.cos(t), 5 * np.sin(t), np.zeros_like(t)]
+    pieces = fit_polyline(q, FitSettings(tol_mm))
+    assert pieces[0].first == 0 and pieces[-1].last == len(q) - 1
+    assert all(a.last == b.first for a, b in zip(pieces, pieces[1:]))
+    fitted = [p for p in pieces if p.fit is not None]
+    assert fitted, "an ellipse polyline must be worth fitting"
+    sagitta = 12 * (1 - np.cos(np.diff(t).max() / 2)) * (12 / 5) ** 2  # polyline's chord error bound
+    for p in fitted:
+        sub = q[p.first:p.last + 1]
+        dense = evaluate(p.fit, np.linspace(0, p.fit.knots[-1], 4001))
+        assert _brute_two_way(dense, sub) <= tol_mm
+        # against the analytic ellipse: x^2/a^2 + y^2/b^2 = 1, distance ~ |F| / |grad F|
+        f = dense[:, 0] ** 2 / 144 + dense[:, 1] ** 2 / 25 - 1
+        grad = np.hypot(2 * dense[:, 0] / 144, 2 * dense[:, 1] / 25)
+        assert np.max(np.abs(f) / grad) <= tol_mm + sagitta
+    blocks = sum(len(p.fit.points) + 5 if p.fit else p.last - p.first for p in pieces)
+    assert blocks < (len(q) - 1) / 4
+
+
+def test_rational_needs_fewer_control_points_than_non_rational_on_conics():
+    tol = FitSettings(1e-4)
+    for q in (_arc(10.0, 0.0, np.pi, 120), _arc(3.0, 0.0, 1.5 * np.pi, 150)):
+        rational = fewest_ctrl(q, tol, 60)
+        plain = fewest_ctrl(q, FitSettings(1e-4, rational=False), 60)
+        assert rational is not None and plain is not None
+        assert len(rational.points) < len(plain.points)
+
+
+def test_geomdl_non_rational_reference_needs_more_points_on_a_circle():
+    fitting = pytest.importorskip("geomdl.fitting")
+    q = _arc(10.0, 0.0, np.pi, 120)
+    rational = fewest_ctrl(q, FitSettings(1e-3), 60)
+    assert rational is not None
+    curve = fitting.approximate_curve(q.tolist(), 3, ctrlpts_size=len(rational.points))
+    curve.sample_size = 4001
+    pts = np.array(curve.evalpts)
+    assert _brute_two_way(pts, q) > 1e-3  # same control-point count, non-rational misses the tolerance
+
+
+def test_short_or_straight_polylines_stay_g01():
+    q = np.array([[0, 0, 0], [1, 0, 0], [2, 0.5, 0]], dtype=float)
+    pieces = fit_polyline(q, FitSettings(0.001))
+    assert len(pieces) == 1 and pieces[0].fit is None
+
+
+def test_bad_input_is_rejected():
+    with pytest.raises(ValueError):
+        fit_rational(np.zeros((3, 3)), 4, 3)
+    with pytest.raises(ValueError):
+        fit_rational(np.zeros((10, 3)), 4, 3)
+    with pytest.raises(ValueError):
+        fit_polyline(_arc(1, 0, 1, 10), FitSettings(0.0))
