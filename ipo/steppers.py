@@ -30,6 +30,8 @@ _NST = 9
 _SPAN, _STARTED = range(2)
 
 _LEAD_NOISE_MM = 1e-9  # a first step shorter than the lead by less than this is float noise
+# Chords below this are too close to float resolution to learn du/ds from (steps near a stop)
+_RATIO_MIN_MM = 1e-9
 
 
 @njit(cache=True)
@@ -98,10 +100,10 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
         uo[j] = u + g
         st[_U] = u + g
         st[_PX], st[_PY], st[_PZ] = x, y, z
-        if s > 0.0:
+        if s > _RATIO_MIN_MM:
             st[_G2], st[_S2] = st[_G1], st[_S1]
             st[_G1], st[_S1] = g, s
-        else:  # no motion (the curve stands still here): try twice the increment next time
+        elif d > _RATIO_MIN_MM:  # no motion: the curve stands still here; twice the increment next time
             st[_G1], st[_S1] = 2.0 * g, d
             st[_S2] = 0.0
     return steps.shape[0], False, 0.0, startup_evals

@@ -2,6 +2,9 @@
 the Taylor update against exact arc length, degenerate curves and the corpus curves."""
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -182,6 +185,24 @@ def test_varying_steps_zeros_tiny_lead_and_chunking(method):
         np.testing.assert_allclose(c[moving], target[moving], rtol=1.01e-4, atol=1e-12)
 
 
+@pytest.mark.parametrize("kw", [dict(n1=2), dict(chord_tol_pct=0.01), dict(method="taylor2")])
+def test_braking_to_a_stop_and_restarting(kw):
+    """A feed ramp down to a standstill through steps far below a micrometre, then back up:
+    the tiny steps must not spoil the du/ds the stepper has learnt."""
+    ramp = 0.1 * np.logspace(0, -14, 40)
+    steps = np.r_[np.full(20, 0.1), ramp, np.zeros(10), ramp[::-1], np.full(20, 0.1)]
+    s = make_stepper(WAVY, **kw)
+    r = s.advance(steps)
+    assert not r.done and np.all(np.diff(r.u) >= 0) and np.isfinite(r.pos_mm).all()
+    c = chords(WAVY, r.pos_mm)
+    np.testing.assert_array_equal(c[60:70], 0.0)
+    assert np.all(r.evals[60:70] == 0)
+    # a spoilt du/ds would show as a first chord after the restart far off (here about 0.02 %)
+    assert np.abs(c[-20:] / 0.1 - 1).max() <= 2e-3
+    big = steps > 1e-6
+    np.testing.assert_allclose(c[big], steps[big], rtol=0.05)
+
+
 def test_end_clamp_and_carry():
     e = WAVY
     s, pos, u, ev, carry = run(e, 0.25, chord_tol_pct=0.01)
@@ -293,3 +314,43 @@ def test_corpus_curves_adaptive_meet_the_bar(path):
                 evals.append(ev)
     assert worst <= 1e-4
     assert np.concatenate(evals).mean() <= 2.5
+
+
+PROGRAMS = Path(__file__).resolve().parents[1] / "programs"
+
+
+def test_curve000_is_like_the_papers():
+    from ipr import parse_file
+
+    (e,) = [x for x in parse_file(PROGRAMS / "curve000.nc").entities if isinstance(x, Nurbs)]
+    geom = curve_of(e)
+    assert nurbs.arc_length(*geom) == pytest.approx(0.089, abs=0.001)
+    assert np.linalg.norm(np.diff(e.points, axis=0), axis=1).sum() == pytest.approx(0.157, abs=0.001)
+    u = np.linspace(0, 1, 100_001)
+    assert 1 / nurbs.curvature(*geom, u).max() == pytest.approx(0.001, rel=0.05)
+
+
+def test_cli_interp_json_out_and_pulse(tmp_path):
+    from click.testing import CliRunner
+
+    from machine.cli import main
+
+    runner = CliRunner()
+    out = tmp_path / "pts.npz"
+    res = runner.invoke(main, ["interp", str(PROGRAMS / "curve000.nc"), "--step-um", "1", "--chord-tol-pct", "0.01",
+                               "--json", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert set(data) == {"steps", "max_dev_pct", "rms_dev_pct", "evals_mean", "evals_max", "startup_evals",
+                         "steps_per_s"}
+    assert data["max_dev_pct"] <= 0.01 + 1e-9 and 1 <= data["evals_mean"] <= 4
+    saved = np.load(out)
+    assert saved["pos_mm"].shape == (data["steps"] + 1, 3) and saved["u"].shape == (data["steps"] + 1,)
+    chords_um = np.linalg.norm(np.diff(saved["pos_mm"], axis=0), axis=1) * 1000
+    assert np.all(np.abs(chords_um[1:-1] - 1) <= 1e-4)  # [0] is the zero-length G0 to the start
+    res = runner.invoke(main, ["interp", str(PROGRAMS / "curve000.nc"), "--pulse", "--blu-um", "1"])
+    assert res.exit_code == 0, res.output
+    dev = float(res.output.split("pulse path deviation")[1].split()[0])
+    assert 0.3 < dev < 0.75  # the 0.5 BLU rule per axis: at most 0.5*sqrt(2) in a plane
+    res = runner.invoke(main, ["interp", str(PROGRAMS / "curve000.nc"), "--out", str(tmp_path / "x.txt")])
+    assert res.exit_code != 0 and "npz or .csv" in res.output
