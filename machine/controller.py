@@ -146,6 +146,9 @@ class Controller:
         state, fault = "completed", None
         stream = self.planner(program.entities, self.config, method=self.method,
                               feed_override=self.feed_override, start_mm=start_position(program))
+        if player is not None:
+            from machine.realtime import prefetch
+            stream = prefetch(stream)
         t0 = time.perf_counter()
         try:
             for item in stream:

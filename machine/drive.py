@@ -184,6 +184,14 @@ class Drive:
         self._lo = np.ceil(limits.min_mm / limits.blu_mm - 1e-9).astype(np.int64)
         self._hi = np.floor(limits.max_mm / limits.blu_mm + 1e-9).astype(np.int64)
 
+    def warm_up(self) -> None:
+        """Load the compiled kernels now (numba loads them on first call, which takes a second)."""
+        lim = self.limits
+        _measure(np.zeros((4, 3), np.int64), 4, 1, lim.blu_mm, lim.period_s, lim.max_velocity_mm_s,
+                 lim.max_accel_mm_s2, lim.max_jerk_mm_s3, False, np.zeros(11), np.zeros(3, np.int64))
+        if self.servo is not None:
+            ServoModel(1.0, 0.0, lim.period_s, (0, 0, 0)).follow(np.zeros((2, 3)))
+
     @property
     def position_mm(self) -> np.ndarray:
         return self.position_blu * self.limits.blu_mm

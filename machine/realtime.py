@@ -10,6 +10,10 @@ axis limit can be exceeded by turning the knob. The scale ramps at
 0.5·a_min·T/v per period (v the planned feed), which keeps the slowdown's own
 deceleration within half the smallest axis acceleration limit.
 
+The planner runs ahead in its own thread (`prefetch`), so that a slow planning step
+(a long look-ahead window, numba loading a kernel on first use) is absorbed by the
+queue instead of starving the drive.
+
 Deadlines: the drive starts once the player has worked one lead time ahead and
 then takes period k at t0 + (lead + k)·T; every period produced after its own
 deadline counts as a miss.
@@ -18,8 +22,10 @@ from __future__ import annotations
 
 import math
 import os
+import queue
 import select
 import sys
+import threading
 import time
 
 import numpy as np
@@ -29,6 +35,44 @@ from ipo.period import LIMIT_DWELL, PeriodBatch
 
 CHUNK_S = 0.02  # periods produced per wake-up
 LEAD_S = 0.1  # how far ahead of the drive the player works
+
+
+PREFETCH_ITEMS = 64  # planned batches and events queued ahead of the player
+
+
+def prefetch(items, depth: int = PREFETCH_ITEMS):
+    """Iterate `items` in a worker thread, `depth` items ahead; errors re-raise here."""
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    done = object()
+
+    def work():
+        try:
+            for item in items:
+                while not stop.is_set():
+                    try:
+                        q.put((item, None), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put((done, None))
+        except BaseException as err:  # handed to the consumer, which re-raises it
+            q.put((done, err))
+
+    worker = threading.Thread(target=work, name="vcnc-planner", daemon=True)
+    worker.start()
+    try:
+        while True:
+            item, err = q.get()
+            if item is done:
+                if err is not None:
+                    raise err
+                return
+            yield item
+    finally:
+        stop.set()
 
 
 @njit(cache=True)
@@ -125,8 +169,10 @@ class Player:
         self.out = np.empty((self.chunk, 3))
         self.idx = np.empty(self.chunk, np.int64)
         self.scales = np.empty(self.chunk)
+        drive.warm_up()
+        _resample(self.pts, 0.0, 0.0, 0.0, 0.0, 1, True, self.out, self.idx, self.scales)
         self.k = 0  # periods delivered
-        self.t0 = self.clock()
+        self.t0 = None  # the clock starts with the first chunk: planning the first batch is start-up
         self._status_at = 0.0
 
     def detach(self) -> None:
@@ -135,6 +181,8 @@ class Player:
 
     def _drain(self) -> None:
         """Wait until the drive has taken every period produced so far."""
+        if self.t0 is None:
+            return
         wait = self.t0 + (self.lead + self.k) * self.T - self.clock()
         if wait > 0 and not self.stopped:
             self.sleep(wait)
@@ -174,6 +222,8 @@ class Player:
                 self.override = max(0.1, round(self.override - 0.1, 1))
 
     def _step(self, final: bool) -> None:
+        if self.t0 is None:
+            self.t0 = self.clock()
         self._handle_keys()
         target = self.override if self.state == "run" else 0.0
         ahead = self.feed[int(self.tau):int(self.tau) + 2 * self.chunk + 2]

@@ -59,11 +59,10 @@ def _fast_stop_answer(stop) -> bool:
 def _status_line(player) -> str:
     d = player.drive
     x, y, z = d.position_mm
-    state = {"run": "RUN", "hold": "HOLD", "stopping": "STOPPING", "paused": "PAUSED (M0/M1)",
+    state = {"run": "RUN", "hold": "HOLD", "stopping": "STOPPING", "paused": "M0 PAUSE",
              "stopped": "STOPPED"}[player.state]
-    return (f"line {d.line:>6}  X{x:10.3f} Y{y:10.3f} Z{z:10.3f}  feed {d.feed_mm_s:7.2f} mm/s  "
-            f"override {player.override * 100:3.0f}%  {state:<15} t {d.t_s:8.2f} s  "
-            f"misses {player.deadline_misses}   [space hold/resume, +/- override, s stop]")
+    return (f"N{d.line:<6}X{x:8.3f} Y{y:8.3f} Z{z:8.3f} F{d.feed_mm_s:6.1f} {player.override * 100:3.0f}% "
+            f"{state:<8} t{d.t_s:7.1f}s miss {player.deadline_misses}")
 
 
 def _run_realtime(controller, program):
@@ -73,6 +72,8 @@ def _run_realtime(controller, program):
 
     from machine.realtime import Keyboard, Player
 
+    click.echo("keys: space hold/resume (and resume after M0/M1), + / - live override, s stop; Ctrl-C aborts",
+               err=True)
     with Keyboard() as kb, Live(Text(""), console=Console(stderr=True), refresh_per_second=10,
                                 transient=False) as live:
         player = Player(keys=kb.keys, status=lambda p: live.update(Text(_status_line(p))))
