@@ -222,6 +222,7 @@ class Program:
     file: str
     entities: list[Entity] = field(default_factory=list)
     warnings: list[Diagnostic] = field(default_factory=list)
+    program_number: int | None = None  # the O word, if the program has one
 
     def motions(self) -> list[Motion]:
         return [e for e in self.entities if isinstance(e, MOTION_TYPES)]

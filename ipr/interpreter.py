@@ -60,6 +60,7 @@ class Interpreter:
         self.warnings: list[Diagnostic] = []
         self._plans: dict = {}
         self._percents = 0
+        self.program_number: int | None = None
         self.done = False
 
     # ---- errors -------------------------------------------------------------------
@@ -228,6 +229,9 @@ class Interpreter:
             if vals[idx["F"]] < 0.0:
                 raise BlockError("E-VALUE", f"negative feed rate F{vals[idx['F']]:g}", idx["F"])
             st.feed_mm_s = vals[idx["F"]] * st.unit / 60.0  # before a G20/G21 of this block
+        if "O" in idx:
+            number = _whole(vals[idx["O"]], "O", idx["O"])
+            st.after_commit.append(lambda: setattr(self, "program_number", number))
         self._spindle_tool(st, spec, vals, out, notices, line)
         if g.get("nonmodal") == 40:
             p = vals[idx["P"]]
