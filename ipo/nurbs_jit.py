@@ -8,7 +8,8 @@ Two forms of the same curve (000 eq. 1-4):
   power form in the local variable t = (u - a) / (b - a) in [0, 1]. A point then
   costs one span lookup (reusing the last span) and p Horner steps per coordinate:
   this is the specialised basis evaluation the interpolators run on.
-All functions are allocation-free except `compile_curve` (run once per curve).
+The span-polynomial functions allocate nothing; the Cox-de Boor ones allocate small scratch
+arrays and serve checks, not the per-period loops.
 """
 from __future__ import annotations
 

@@ -6,13 +6,16 @@ output: n1 curve evaluations per period, the output point included.
 
 Tolerance mode (§2.2.1 for the start-up; `chord_tol_pct` for every period): trial points
 are evaluated until the chord is within the tolerance of d, and the accepted trial *is*
-the output point; should the cap stop it on a trial beyond d(1 + tol), the longest trial
-short of d is output instead, so a tolerance-mode chord never exceeds d(1 + tol). With `secant` (the adaptive mode) the update is not eq. 9 but a root
-of the quadratic signed-chord model sigma(du) = a du + b du^2 through the origin and the
-two latest known points (the previous step seen backwards counts as one: sigma(-du_{j-1})
-= -s_{j-1}), kept inside the bracket of trials found so far. Where it leaves the bracket, or two
-trials in a row fall on the same side of d (a kink in the curve), the Illinois variant of
-regula falsi on the bracket takes over; eq. 9 serves until an overshoot closes the bracket.
+the output point.
+
+Adaptive mode (`secant`): the update is not eq. 9 but a root of the quadratic signed-chord
+model sigma(du) = a du + b du^2 through the origin and the two latest known points (the
+previous step seen backwards counts as one: sigma(-du_{j-1}) = -s_{j-1}), kept inside the
+bracket of trials found so far. Where it leaves the bracket, or two trials in a row fall on
+the same side of d (a kink in the curve), the Illinois variant of regula falsi on the
+bracket takes over; eq. 9 serves until an overshoot closes the bracket. Should the cap
+stop it on a trial beyond d(1 + tol), the longest trial short of d is output instead, so
+an adaptive chord never exceeds d(1 + tol).
 
 A zero chord (a stretch where the curve stands still) doubles the increment instead of
 dividing by zero, so the parameter always moves forward.
@@ -106,7 +109,7 @@ def recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
         if not secant:
             gn = eq9(d, g, s)
         else:
-            streak = streak + 1 if (s < d) == short else 1
+            streak = streak + 1 if streak > 0 and (s < d) == short else 1
             short = s < d
             if short:
                 lo, flo = g, s - d

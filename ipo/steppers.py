@@ -175,7 +175,6 @@ class NurbsStepper:
         self._der = np.zeros((3, 3))
         self.done = False
         self.startup_evals = 0
-        self.u_range = (self._u_min, self._u_max)
 
     def advance(self, steps_mm: np.ndarray) -> Steps:
         if self.done:
