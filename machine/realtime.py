@@ -37,7 +37,7 @@ CHUNK_S = 0.02  # periods produced per wake-up
 LEAD_S = 0.1  # how far ahead of the drive the player works
 
 
-PREFETCH_ITEMS = 64  # planned batches and events queued ahead of the player
+PREFETCH_ITEMS = 16  # planned batches and events queued ahead of the player
 
 
 def prefetch(items, depth: int = PREFETCH_ITEMS):

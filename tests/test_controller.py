@@ -242,3 +242,22 @@ def test_servo_model_from_the_machine_file_reports_contour_error():
     result = Controller(cfg, planner=fake_planner(line_stream(10.0))).run(program_of(Line(1, (0, 0, 0), (1, 0, 0), 9)))
     # a straight line: the axes lag along it, never off it (up to the BLU rounding of the command)
     assert result.max_contour_error_um is not None and result.max_contour_error_um < 1.0
+
+
+def test_the_machine_file_reaches_the_interpreter(tmp_path):
+    import dataclasses
+    from ipo.config import Tool, default_config
+    from ipr import Setup, parse_text
+    from machine.controller import Controller
+    text = "G21 G90\nG55 G0 X1 Y2 Z3\nG43 H2 G1 Z0 F600\nM2\n"
+    path = tmp_path / "offsets.nc"
+    path.write_text(text)
+    cfg = dataclasses.replace(default_config(), work_offsets_mm={"G55": (10.0, 20.0, -4.0)},
+                              tools={2: Tool(length_mm=5.0)})
+    program = Controller(cfg).check(path)
+    rapid, line = program.motions()
+    assert rapid.end == pytest.approx((11, 22, -1))
+    reference = parse_text(text, str(path), setup=Setup(work_offsets_mm={"G55": (10.0, 20.0, -4.0)},
+                                                        tool_lengths_mm={2: 5.0}))
+    assert line.end == reference.motions()[1].end
+    assert line.end[2] != pytest.approx(-4.0)  # the tool length moved Z

@@ -37,6 +37,8 @@ def _print_summary(result, as_json: bool) -> None:
             continue
         if isinstance(value, list) and value and isinstance(value[0], float):
             value = "  ".join(f"{v:g}" for v in value)
+        elif isinstance(value, list):
+            value = "; ".join(str(v) for v in value)
         elif isinstance(value, dict):
             value = ", ".join(f"{k} {v}" for k, v in value.items())
         elif isinstance(value, float):
@@ -125,6 +127,9 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
                             if hasattr(e, "text") else None)
     try:
         program = controller.check(file)
+    except KeyboardInterrupt:
+        click.echo(f"{file}: interrupted while checking the program; no axis moved", err=True)
+        sys.exit(130)
     except ProgramRejected as rejected:
         for reason in rejected.reasons:
             click.echo(reason, err=True)
@@ -148,7 +153,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
             writer.close()
     _print_summary(result, as_json)
     if result.state != "completed":
-        click.echo(f"{file}: {result.state} at line {result.line}, position "
+        where = f"line {result.line}" if result.periods else "the start, before the first move"
+        click.echo(f"{file}: {result.state} at {where}, position "
                    f"X{result.position_mm[0]:.4f} Y{result.position_mm[1]:.4f} Z{result.position_mm[2]:.4f}"
                    + (f": {result.fault}" if result.fault else ""), err=True)
     if plot_file:
