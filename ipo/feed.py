@@ -105,7 +105,10 @@ class FeedPlanner:
                     self._build(final=False)
                     yield from self._plan(final=False)
             elif isinstance(e, (Spindle, Coolant, Message)):
-                self._build_pending_event(e)
+                if self._smp is None and not self._motions:
+                    yield e  # standing still: nothing to wait for
+                else:
+                    self._build_pending_event(e)
                 if isinstance(e, Spindle):
                     self._rpm = e.rpm if e.direction is not None else 0.0
             elif isinstance(e, Dwell):
@@ -229,8 +232,12 @@ class FeedPlanner:
                 c = int(np.searchsorted(smp.s, self._s_end - reach, side="right")) - 1
                 if c < 1:
                     return
-            yield from self._emit(c, x, cap, reason, stop=final)
-            if not self._override_changed and not final:
+            stops = np.nonzero(x[1:c] <= 0.0)[0]
+            halt = final
+            if len(stops):  # G61 and the like: the period grid lands exactly on the stop
+                c, halt = int(stops[0]) + 1, True
+            yield from self._emit(c, x, cap, reason, stop=halt)
+            if not (final or halt or self._override_changed):
                 return
         if final and self._smp is not None and len(self._smp) <= 1:
             self._reset_window()
@@ -238,10 +245,18 @@ class FeedPlanner:
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
         smp = self._smp
-        s, xs = smp.s[:c + 1], x[:c + 1]
+        ascale = np.where(self._corner[:c] | self._corner[1:c + 1], 0.5, 1.0)
+        s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1],
+                               self.a_max, ascale)
+        # a period is limited by a cap where either end of its interval runs at that cap,
+        # else it is accelerating or braking
+        k0, k1 = src[:-1], src[:-1] + 1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r0 = np.where(xs[:-1] >= cap[k0] * 0.995, 1, 0)
+            r1 = np.where(xs[1:] >= cap[k1] * 0.995, 1, 0)
+        seg_reason = np.where(r0 > 0, reason[k0], np.where(r1 > 0, reason[k1], LIMIT_ACCEL)).astype(np.int8)
         tc = la.sample_times(s, xs)
-        seg_reason = np.where(np.minimum(xs[:-1], xs[1:]) >= 0.999 * np.minimum(cap[:c], cap[1:c + 1]),
-                              reason[:c], LIMIT_ACCEL).astype(np.int8)
+        c_ref = len(s) - 1
         t_next = self._phase
         s_prev = s[0]
         k_stop = c
@@ -265,16 +280,18 @@ class FeedPlanner:
                 break
             if self._override_changed:
                 # finish the current sample interval on the old plan, then replan from there
-                k_stop = min(int(kseg[-1]) + 1, c)
-                more = int(np.floor((tc[k_stop] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[k_stop] else 0
+                k_stop = min(int(src[kseg[-1]]) + 1, c)
+                r_stop = int(np.searchsorted(s, smp.s[k_stop], side="left"))
+                t_stop = tc[r_stop]
+                more = int(np.floor((t_stop - t_next) / self.T + 1e-9)) + 1 if t_next <= t_stop else 0
                 if more:
                     times = t_next + self.T * np.arange(more)
                     sv, kseg = la.positions_at(times, s, xs, tc)
                     yield from self._batch(sv, s_prev, seg_reason[kseg])
                     t_next = times[-1] + self.T
                 break
-        self._phase = t_next - tc[k_stop]
-        self._x0 = float(xs[k_stop])
+        self._phase = t_next - (tc[r_stop] if k_stop < c else tc[c_ref])
+        self._x0 = float(x[k_stop])
         self._drop(k_stop)
         if stop and k_stop == c:
             self._phase = self.T
@@ -299,8 +316,7 @@ class FeedPlanner:
         cut = 0
         while self._events and self._events[0][0] <= sv[-1] + 1e-9:
             s_ev, ev = self._events.pop(0)
-            j = int(np.searchsorted(sv, s_ev - 1e-9, side="left")) + 1
-            j = min(max(j, cut), len(sv))
+            j = max(int(np.searchsorted(sv, s_ev + 1e-9, side="right")), cut)
             if j > cut:
                 yield PeriodBatch(qpos[cut:j], inc[cut:j], feed[cut:j], limit[cut:j], line[cut:j])
             cut = j

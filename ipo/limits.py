@@ -111,6 +111,18 @@ def combine(caps: list[tuple[np.ndarray, int]]) -> tuple[np.ndarray, np.ndarray]
     return stack[arg, np.arange(stack.shape[1])], codes[arg]
 
 
+def _least_inclination(t: np.ndarray) -> np.ndarray:
+    """Smallest inclination on the intervals next to each sample (0 where the tangent
+    crosses the horizontal), so that the cap at the samples holds in between too."""
+    alpha = inclination_rad(t)
+    tz = t[:, 2]
+    lo = alpha.copy()
+    for a, b in ((slice(1, None), slice(None, -1)), (slice(None, -1), slice(1, None))):
+        cross = np.sign(tz[a]) != np.sign(tz[b])
+        lo[a] = np.where(cross, 0.0, np.minimum(lo[a], alpha[b]))
+    return lo
+
+
 def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, delta_mm: float,
                 finishing: tuple[float, float, float, int] | None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -140,7 +152,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         r, pick, target, flutes = finishing
         rpm = pc.rpm[smp.piece]
         active = ~pc.rapid[smp.piece] & (rpm > 0)
-        f = roughness_feed_mm_s(r, pick, target, flutes, rpm, inclination_rad(smp.t))
+        f = roughness_feed_mm_s(r, pick, target, flutes, rpm, _least_inclination(smp.t))
         caps.append((np.where(active, f**2, np.inf), LIMIT_ROUGHNESS))
     cap, reason = combine(caps)
     last = np.concatenate([edge, [len(smp) - 1]])

@@ -114,3 +114,60 @@ def positions_at(times: np.ndarray, s: np.ndarray, x: np.ndarray, tc: np.ndarray
     acc = np.divide(x[k + 1] - x[k], 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
     pos = np.minimum(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1])
     return np.maximum(pos, s[k]), k
+
+
+@njit(cache=True)
+def refine(s, t, kv, x, cap, a_max, ascale):
+    """Insert the profile's own corners inside straight intervals.
+
+    Between two samples x is linear in s, but on a straight stretch (no curvature, one
+    tangent) the best profile is min(accelerate from x_k, cap, brake into x_k+1): a
+    line that reaches its cruise speed, or turns from accelerating to braking, between
+    two samples gets the exact breakpoints. Returns (s, x, source interval)."""
+    n = s.shape[0]
+    so = np.empty(3 * n)
+    xo = np.empty(3 * n)
+    src = np.empty(3 * n, np.int64)
+    m = 0
+    for k in range(n - 1):
+        so[m] = s[k]
+        xo[m] = x[k]
+        src[m] = k
+        m += 1
+        ds = s[k + 1] - s[k]
+        straight = ds > 0.0
+        for i in range(3):
+            if kv[k, i] != 0.0 or kv[k + 1, i] != 0.0 or t[k, i] != t[k + 1, i]:
+                straight = False
+        if not straight:
+            continue
+        lo, hi = _bounds(t, kv, k, 0.0, a_max, ascale[k])
+        c = min(cap[k], cap[k + 1])
+        if hi <= 0.0 or lo >= 0.0:
+            continue
+        s1 = (c - x[k]) / (2.0 * hi)  # reaches the cap
+        s2 = ds - (c - x[k + 1]) / (-2.0 * lo)  # starts braking from the cap
+        if s1 < s2:
+            if s1 > 0.0 and s1 < ds:
+                so[m] = s[k] + s1
+                xo[m] = c
+                src[m] = k
+                m += 1
+            if s2 > max(s1, 0.0) and s2 < ds:
+                so[m] = s[k] + s2
+                xo[m] = c
+                src[m] = k
+                m += 1
+        else:
+            sp = (x[k + 1] - x[k] - 2.0 * lo * ds) / (2.0 * (hi - lo))  # accelerate, then brake
+            xp = x[k] + 2.0 * hi * sp
+            if sp > 0.0 and sp < ds and xp > max(x[k], x[k + 1]):
+                so[m] = s[k] + sp
+                xo[m] = xp
+                src[m] = k
+                m += 1
+    so[m] = s[n - 1]
+    xo[m] = x[n - 1]
+    src[m] = n - 2
+    m += 1
+    return so[:m], xo[:m], src[:m]

@@ -13,6 +13,10 @@ import numpy as np
 from ipo.sampling import NurbsTable
 from ipo.steppers import make_stepper
 
+# The stepper's chords carry a small bias (about 1e-7 of a step); re-reading its arc
+# position this often keeps the accumulated lag far below what a drive could feel.
+RESYNC_PERIODS = 32
+
 
 class NurbsDriver:
     def __init__(self, entity, table: NurbsTable, method: str):
@@ -20,7 +24,9 @@ class NurbsDriver:
         self.table = table
         self.method = method
         self.stepper = None
-        self.s_reached = 0.0
+        self.s_reached = 0.0  # arc length the stepper has reached
+        self.s_planned = 0.0  # arc length the schedule asked for so far
+        self.gain = 1.0  # realised arc per asked chord, learnt chunk by chunk
         self.end = np.array(entity.points[-1], dtype=float)
 
     def points(self, sigma: np.ndarray, sigma_before: float) -> np.ndarray:
@@ -28,23 +34,43 @@ class NurbsDriver:
         previous period ended (negative: inside the previous piece)."""
         n = len(sigma)
         out = np.repeat(self.end[None, :], n, axis=0)
-        length = self.table.length
-        target = np.minimum(sigma, length)
+        target = np.minimum(sigma, self.table.length)
         lead = 0.0
         if self.stepper is None:
             lead = max(-sigma_before, 0.0)
             self.stepper = make_stepper(self.entity, method=self.method, lead_mm=lead)
-            self.s_reached = 0.0
-        if self.stepper.done:
-            return out
-        d = np.maximum(np.diff(target, prepend=self.s_reached), 0.0)
+        for a in range(0, n, RESYNC_PERIODS):
+            if self.stepper.done:
+                break
+            b = min(a + RESYNC_PERIODS, n)
+            out[a:b] = self._advance(target[a:b], lead if a == 0 else 0.0)
+        return out
+
+    def _advance(self, target: np.ndarray, lead: float) -> np.ndarray:
+        length = self.table.length
+        out = np.repeat(self.end[None, :], len(target), axis=0)
+        d = np.maximum(np.diff(target, prepend=self.s_planned), 0.0)
         kappa = self.table.curvature_at(target - 0.5 * d)
-        steps = d * (1.0 - (kappa * d) ** 2 / 24.0)  # chord of an arc of length d
+        chord = d * (1.0 - (kappa * d) ** 2 / 24.0)  # chord of an arc of length d
+        # the lag left by the last chunk is spread over this one, and this chunk's steps are
+        # scaled by the last chunk's realised/asked ratio: no single period catches up
+        lag = self.s_planned - self.s_reached
+        steps = np.maximum(chord * self.gain + lag / len(target), 0.0)
         steps[0] += lead
-        # a period that reaches the curve's end must end on it even if the stepper lags
-        steps[target >= length] = np.maximum(steps[target >= length], 2.0 * length + 1.0)
+        # a period that reaches the curve's end ends on it, even if the stepper lags
+        end = target >= length
+        steps[end] = np.maximum(steps[end], 2.0 * length + 1.0)
         st = self.stepper.advance(steps)
         k = len(st.u)
         out[:k] = st.pos_mm
-        self.s_reached = length if st.done else self.table.s_of_u(float(st.u[-1])) if k else self.s_reached
+        if st.done:
+            self.s_reached = length
+        elif k == len(target):
+            moved = self.table.s_of_u(float(st.u[-1])) - self.s_reached
+            asked = float(steps.sum()) - lead
+            planned, chords = float(target[-1]) - self.s_planned, float(chord.sum())
+            if moved > 0 and chords > 0:
+                self.gain = float(np.clip(planned * asked / (chords * moved), 0.99, 1.01))
+            self.s_reached += moved
+        self.s_planned = float(target[-1])
         return out

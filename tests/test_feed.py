@@ -1,0 +1,244 @@
+"""Feed stage end to end: per-period positions checked by finite differences and against
+analytic geometry (trapezoid times, circle radii, scipy's BSpline for NURBS)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline
+
+from ipo.config import Finishing, default_config
+from ipo.feed import ACCEL_USE, FeedPlanner, plan_periods
+from ipo.period import LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
+from ipr.entities import (EXACT_STOP, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
+                          Spindle, Stop)
+
+BASE = default_config()
+FINE = dataclasses.replace(BASE, blu_mm=1e-9)  # BLU rounding far below the limits' resolution
+V = np.array([a.max_velocity_mm_s for a in BASE.axes])
+A = np.array([a.max_accel_mm_s2 for a in BASE.axes])
+T = BASE.period_s
+G64 = PathControl(blend_tol_mm=0.01)
+
+
+def run(entities, cfg=FINE, **kw):
+    start = kw.pop("start_mm", None)
+    if start is None:
+        start = next(e for e in entities if hasattr(e, "start")).start
+    items = list(plan_periods(entities, cfg, start_mm=start, **kw))
+    batches = [b for b in items if isinstance(b, PeriodBatch)]
+    cat = {f: np.concatenate([getattr(b, f) for b in batches]) for f in ("pos_mm", "inc_blu", "feed_mm_s",
+                                                                        "limit", "line")}
+    return items, cat, np.asarray(start, float)
+
+
+def finite_differences(pos, start):
+    v = np.diff(pos, axis=0, prepend=start[None]) / T
+    a = np.diff(v, axis=0, prepend=np.zeros((1, 3))) / T
+    return v, a
+
+
+def assert_within_limits(pos, start, tol_v=1e-6, tol_a=1e-3):
+    v, a = finite_differences(pos, start)
+    assert np.all(np.abs(v) <= V + tol_v), np.abs(v).max(0)
+    assert np.all(np.abs(a) <= A + tol_a), np.abs(a).max(0)
+
+
+def polygon_circle(n=360, r=10.0, feed=50.0, path=G64):
+    ang = np.linspace(0, 2 * np.pi, n + 1)
+    p = np.c_[r * np.cos(ang), r * np.sin(ang), np.zeros(n + 1)]
+    return [Line(i + 1, tuple(p[i]), tuple(p[i + 1]), feed, path) for i in range(n)]
+
+
+def quarter_nurbs(feed=50.0):
+    return Nurbs(1, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.array([1, np.sqrt(0.5), 1]),
+                 np.array([[10, 0, 0], [10, 10, 0], [0, 10, 0.0]]), feed)
+
+
+def test_straight_line_is_a_trapezoid():
+    L, F = 30.0, 50.0
+    _, out, start = run([Line(1, (0, 0, 0), (L, 0, 0), F)])
+    a = A[0] * ACCEL_USE
+    t_trap = L / F + F / a  # accelerate and brake at a, cruise at F
+    assert len(out["pos_mm"]) * T == pytest.approx(t_trap, abs=2 * T)
+    np.testing.assert_allclose(out["pos_mm"][-1], [L, 0, 0], atol=1e-9)
+    assert out["feed_mm_s"].max() == pytest.approx(F, rel=1e-9)
+    assert_within_limits(out["pos_mm"], start)
+
+
+def test_increments_sum_to_the_end_in_blu():
+    items, out, _ = run([Line(1, (0, 0, 0), (1.2345678, -2.5, 0.3), 20.0)], cfg=BASE)
+    np.testing.assert_array_equal(out["inc_blu"].sum(0), np.rint(np.array([1.2345678, -2.5, 0.3]) / 1e-3))
+    np.testing.assert_allclose(out["pos_mm"][-1], [1.235, -2.5, 0.3], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["polygon", "g2", "nurbs", "helix", "corners_g64", "corners_g61", "rapid_3d"])
+def test_no_axis_exceeds_its_limits(name):
+    ents = {
+        "polygon": lambda: polygon_circle(),
+        "g2": lambda: [Arc(1, (10, 0, 0), (10, 0, 0), (0, 0, 0), "XY", False, 90.0)],
+        "nurbs": lambda: [quarter_nurbs(150.0)],
+        "helix": lambda: [Arc(1, (5, 0, 0), (5, 0, 3), (0, 0, 0), "XY", True, 80.0, turns=2)],
+        "corners_g64": lambda: [Line(1, (0, 0, 0), (10, 0, 0), 80.0, G64), Line(2, (10, 0, 0), (10, 10, 2), 80.0, G64),
+                                Line(3, (10, 10, 2), (0, 3, 2), 80.0, G64)],
+        "corners_g61": lambda: [Line(1, (0, 0, 0), (10, 0, 0), 80.0, EXACT_STOP),
+                                Line(2, (10, 0, 0), (10, 10, 0), 80.0, EXACT_STOP)],
+        "rapid_3d": lambda: [Rapid(1, (0, 0, 0), (40, 30, -20)), Rapid(2, (40, 30, -20), (0, 0, 0))],
+    }[name]()
+    _, out, start = run(ents)
+    assert_within_limits(out["pos_mm"], start)
+    np.testing.assert_allclose(out["pos_mm"][-1], ents[-1].end, atol=1e-9)
+
+
+def test_circle_radius_and_chord_error():
+    """Every period point lies on the G2 circle; the chord sagitta stays within delta."""
+    _, out, start = run([Arc(1, (10, 0, 0), (10, 0, 0), (0, 0, 0), "XY", False, 100.0)])
+    r = np.linalg.norm(out["pos_mm"][:, :2], axis=1)
+    np.testing.assert_allclose(r, 10.0, atol=1e-9)
+    chord = np.linalg.norm(np.diff(out["pos_mm"], axis=0), axis=1)
+    sagitta = 10.0 - np.sqrt(100.0 - (chord / 2) ** 2)
+    assert sagitta.max() <= BASE.chord_tol_mm * (1 + 1e-9)
+
+
+def _nurbs_dense(e, n=200001):
+    hom = np.c_[e.points * e.weights[:, None], e.weights]
+    u = np.linspace(e.knots[e.degree], e.knots[-e.degree - 1], n)
+    h = BSpline(e.knots, hom, e.degree)(u)
+    return h[:, :3] / h[:, 3:]
+
+
+def test_realised_chord_error_on_a_tight_nurbs():
+    """A curve with a sharp curvature peak: the largest distance of the curve from the
+    per-period polyline stays within delta (the curve sampled by scipy, not by ipo)."""
+    pts = np.array([[0, 0, 0], [20, 0, 0], [20.5, 0.8, 0], [20, 1.6, 0], [0, 2, 0.0]])
+    e = Nurbs(1, 3, np.array([0, 0, 0, 0, 0.5, 1, 1, 1, 1.0]), np.ones(5), pts, 100.0)
+    _, out, start = run([e])
+    poly = np.vstack([start[None], out["pos_mm"]])
+    dense = _nurbs_dense(e)
+    # distance of each dense point from the nearest polyline segment among its neighbours
+    j = np.searchsorted(np.cumsum(np.r_[0, np.linalg.norm(np.diff(poly, axis=0), axis=1)]),
+                        np.cumsum(np.r_[0, np.linalg.norm(np.diff(dense, axis=0), axis=1)]))
+    best = np.full(len(dense), np.inf)
+    for off in (-2, -1, 0, 1):
+        a = np.clip(j + off, 0, len(poly) - 2)
+        p0, d = poly[a], poly[a + 1] - poly[a]
+        u = np.clip(np.einsum("ij,ij->i", dense - p0, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-30), 0, 1)
+        best = np.minimum(best, np.linalg.norm(dense - p0 - u[:, None] * d, axis=1))
+    assert best.max() <= BASE.chord_tol_mm * 1.02
+    assert_within_limits(out["pos_mm"], start)
+    assert (out["limit"] == LIMIT_CURVATURE).any()
+
+
+def test_g61_stops_at_the_corner_and_g64_does_not():
+    corner = np.array([10.0, 0, 0])
+    for path, stops in ((EXACT_STOP, True), (PathControl(blend_tol_mm=0.5), False)):
+        _, out, _ = run([Line(1, (0, 0, 0), (10, 0, 0), 50.0, path), Line(2, (10, 0, 0), (10, 10, 0), 50.0, path)])
+        d = np.linalg.norm(out["pos_mm"] - corner, axis=1)
+        k = int(np.argmin(d))
+        if stops:
+            assert d[k] < 1e-12 and out["feed_mm_s"][k + 1] < 1.0
+        else:
+            assert d.min() > 0.05  # the blend cuts the corner, by no more than P
+            assert out["feed_mm_s"][k] > 15.0
+
+
+def test_tangent_junctions_are_crossed_at_full_feed():
+    """Line -> tangent arc -> tangent line at 40 mm/s: the curvature limit sqrt(A R) is
+    far above, so the feed stays at the programmed value across both junctions."""
+    ents = [Line(1, (0, 0, 0), (10, 0, 0), 40.0), Arc(2, (10, 0, 0), (20, 10, 0), (10, 10, 0), "XY", True, 40.0),
+            Line(3, (20, 10, 0), (20, 20, 0), 40.0)]
+    _, out, start = run(ents)
+    mid = (out["line"] == 2)
+    assert np.all(np.abs(out["feed_mm_s"][mid] - 40.0) < 1e-6)
+    assert_within_limits(out["pos_mm"], start)
+
+
+def test_limit_reasons():
+    # diagonal in XY at 150 mm/s: each axis would run 106 mm/s > 100
+    _, out, _ = run([Line(1, (0, 0, 0), (100, 100, 0), 150.0)])
+    assert (out["limit"] == LIMIT_AXIS).sum() > 100
+    assert out["feed_mm_s"].max() == pytest.approx(100 * np.sqrt(2) * 0.995, rel=1e-3)
+    # a radius 2 circle at 100 mm/s: per axis, v^2 / R |n_i| <= A, so sqrt(A R) = 44.7 mm/s
+    # where the normal lies along an axis and up to sqrt(sqrt(2) A R) = 53.2 mm/s between
+    _, out, _ = run([Arc(1, (2, 0, 0), (2, 0, 0), (0, 0, 0), "XY", True, 100.0)])
+    assert (out["limit"] == LIMIT_CURVATURE).any()
+    assert out["feed_mm_s"].max() <= np.sqrt(np.sqrt(2) * A[0] * 2.0)
+    ang = np.arctan2(out["pos_mm"][:, 1], out["pos_mm"][:, 0])
+    on_axis = np.abs(np.sin(2 * ang)) < 0.05
+    assert out["feed_mm_s"][on_axis].max() <= np.sqrt(A[0] * 2.0) * 1.01
+    _, out, _ = run([Line(1, (0, 0, 0), (10, 0, 0), 20.0)])
+    assert (out["limit"] == LIMIT_PROGRAMMED).sum() > 300
+
+
+def test_roughness_limiter_on_flat_and_steep_moves():
+    """002 §4 conditions: 3518 mm/min on a horizontal pass, the programmed 5000 on a 30 deg slope."""
+    cfg = dataclasses.replace(FINE, finishing=Finishing(1, 0.2, 3.3))
+    f5000 = 5000 / 60
+    slope = (40 * np.cos(np.radians(30)), 0, 40 * np.sin(np.radians(30)))
+    ents = [Spindle(1, 12500, "cw"), Line(2, (0, 0, 0), (60, 0, 0), f5000, EXACT_STOP),
+            Line(3, (60, 0, 0), tuple(np.add((60, 0, 0), slope)), f5000, EXACT_STOP)]
+    items, out, _ = run(ents, start_mm=(0, 0, 0), cfg=dataclasses.replace(cfg, axes=tuple(
+        dataclasses.replace(a, max_velocity_mm_s=200.0) for a in cfg.axes)))
+    flat = out["feed_mm_s"][out["line"] == 2].max() * 60
+    steep = out["feed_mm_s"][out["line"] == 3].max() * 60
+    assert flat == pytest.approx(2 * 12500 * np.sqrt(2 * 3 * 0.0033 - 0.0033**2), rel=1e-6)
+    assert (out["limit"] == LIMIT_ROUGHNESS).any()
+    assert steep == pytest.approx(5000, rel=1e-6)
+    assert isinstance(items[0], Spindle)
+
+
+def test_events_dwell_and_stop_in_order():
+    ents = [Line(1, (0, 0, 0), (5, 0, 0), 20.0), Message(2, "half way"), Line(3, (5, 0, 0), (10, 0, 0), 20.0),
+            Dwell(4, 0.25), Line(5, (10, 0, 0), (10, 5, 0), 20.0), Stop(6, False), ProgramEnd(7)]
+    items, out, _ = run(ents)
+    kinds = [type(i).__name__ for i in items]
+    k_msg, k_stop = kinds.index("Message"), kinds.index("Stop")
+    before = np.concatenate([b.pos_mm for b in items[:k_msg] if isinstance(b, PeriodBatch)])
+    np.testing.assert_allclose(before[-1], [5, 0, 0], atol=0.05)  # the message comes where line 1 ends
+    dwell = out["line"] == 4
+    assert dwell.sum() == 250 and np.all(out["feed_mm_s"][dwell] == 0)
+    np.testing.assert_allclose(out["pos_mm"][dwell], [[10, 0, 0]] * 250, atol=1e-9)
+    last = [b for b in items[:k_stop] if isinstance(b, PeriodBatch)][-1]
+    np.testing.assert_allclose(last.pos_mm[-1], [10, 5, 0], atol=1e-9)
+    assert kinds[-1] == "ProgramEnd"
+
+
+def test_feed_override_and_live_change():
+    line = [Line(1, (0, 0, 0), (100, 0, 0), 50.0)]
+    _, out, _ = run(line, feed_override=0.5)
+    assert out["feed_mm_s"].max() == pytest.approx(25.0, rel=1e-9)
+    planner = FeedPlanner(FINE, start_mm=(0, 0, 0), batch_periods=200)
+    pos = []
+    for item in planner.run(line):
+        pos.append(item.pos_mm)
+        if len(pos) == 3:  # 0.6 s in: cruising at 50 mm/s
+            planner.set_feed_override(0.2)
+    pos = np.concatenate(pos)
+    v, _ = finite_differences(pos, np.zeros(3))
+    assert np.abs(v[550:590, 0] - 50).max() < 1e-6  # before the change
+    assert np.abs(v[1000:1100, 0] - 10).max() < 1e-6  # braked to 20 %
+    assert_within_limits(pos, np.zeros(3))
+    np.testing.assert_allclose(pos[-1], [100, 0, 0], atol=1e-9)
+
+
+def test_streams_with_bounded_look_ahead():
+    """A 30,000-block program: the first batch comes out long before the last block is read."""
+    read = []
+
+    def blocks():
+        for i in range(30000):
+            x0, x1 = 0.1 * i, 0.1 * (i + 1)
+            read.append(i)
+            yield Line(i + 1, (x0, 0.01 * np.sin(x0), 0), (x1, 0.01 * np.sin(x1), 0), 30.0, G64)
+
+    gen = plan_periods(blocks(), BASE, start_mm=(0, 0, 0))
+    first = next(gen)
+    assert isinstance(first, PeriodBatch) and len(read) < 5000
+    total = len(first) + sum(len(b) for b in gen)
+    assert total * T == pytest.approx(3000 / 30, rel=0.01)
+
+
+def test_start_mismatch_is_an_error():
+    with pytest.raises(ValueError, match="stands at"):
+        list(plan_periods([Line(1, (1, 0, 0), (2, 0, 0), 10.0)], BASE, start_mm=(0, 0, 0)))
