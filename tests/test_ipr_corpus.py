@@ -43,10 +43,11 @@ def test_corpus_program_parses(path: Path) -> None:
     assert motions, "a corpus program with no motion at all"
     for w in program.warnings:
         assert w.severity in ("warning", "notice") and w.line >= 1 and w.col >= 1, str(w)
-    position = (0.0, 0.0, 0.0)
-    for m in motions:  # the motions chain: each starts where the previous one ended
-        assert m.start == pytest.approx(position, abs=1e-9), f"line {m.line}: {m!r} does not start at {position}"
-        position = m.end
+    # the motions chain from the origin: each starts where the previous one ended
+    starts = np.array([m.start for m in motions])
+    ends = np.array([(0.0, 0.0, 0.0)] + [m.end for m in motions[:-1]])
+    gaps = np.abs(starts - ends).max(axis=1)
+    assert gaps.max() <= 1e-9, f"{motions[int(gaps.argmax())]!r} does not start where the previous motion ended"
 
 
 def _group_lines(path: Path) -> list[int]:
@@ -114,7 +115,7 @@ def _same(a, b) -> bool:
     return a == b
 
 
-@pytest.mark.parametrize("name", ["g1_3d_chips.ngc", "g1_lhchips4.ngc", "g5_butterfly_xy.ngc", "g6_unipa.ngc"])
+@pytest.mark.parametrize("name", ["g1_lhchips4.ngc", "g5_butterfly_xy.ngc", "g6_unipa.ngc"])
 def test_streaming_equals_whole_file(name: str) -> None:
     path = require_corpus() / name
     whole = ipr.parse_file(path).entities

@@ -8,6 +8,7 @@ converted to machine mm by tests/rs274.py.
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -59,9 +60,13 @@ def mismatches(moves: list[CanonMove], entities: list) -> list[str]:
 @pytest.mark.parametrize("path", corpus_files("g1_*.ngc"))
 def test_corpus_matches_rs274(path: Path) -> None:
     """The corpus's G0–G3 programs (all of them, stellabee1's 169k lines included: ~1 s in rs274)."""
-    moves = canon_moves(run_rs274(path))
+    require_rs274()
+    with ThreadPoolExecutor(1) as pool:  # rs274 runs while vcnc parses
+        output = pool.submit(run_rs274, path)
+        entities = ipr.parse_file(path).entities
+        moves = canon_moves(output.result())
     assert len(moves) > 1000  # every g1_* program is thousands of moves: guards against a broken reader
-    problems = mismatches(moves, ipr.parse_file(path).entities)
+    problems = mismatches(moves, entities)
     assert not problems, "\n".join(problems)
 
 
@@ -116,13 +121,25 @@ G18 G3 X0 Z-15 Y2 I10 K0 P2
 G19 G2 Y2 Z-15 X5 J-3 K0
 M2
 """),
-    "inch": (6, """G20 G90 G17
+    # F stands on its own line after a unit change: in a block that also holds G20/G21,
+    # rs274 executes F first (RS274NGC order of execution), i.e. in the old units.
+    "inch": (7, """G20 G90 G17
 G0 X1 Y1 Z0.5
 G1 X2 F10
 G2 X3 Y2 I0 J1
 G3 X2.5 Y2.5 R0.5
-G21 G1 X10 Y10 F250
-G20 G1 X0.5 F7.5
+G21 G1 X10 Y10
+F250
+G1 X20
+G20
+G1 X0.5 F7.5
+M2
+"""),
+    # ...and F in the same block as G20/G21, which RS274NGC executes before the unit change
+    "feed_with_unit_change": (3, """G21 G90
+G1 X1 F100
+G20 G1 X1 F10
+G21 G1 X5 F300
 M2
 """),
     "expressions": (8, """G21 G90
