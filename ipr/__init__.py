@@ -26,11 +26,14 @@ from __future__ import annotations
 
 import gc
 from collections.abc import Iterable, Iterator
+from itertools import islice
 
 from ipr.entities import Entity, GCodeError, Program
 from ipr.interpreter import Interpreter
 from ipr.modal import Setup
 from ipr.syntax import Block, LineSyntaxError, parse_line, parse_line_full
+
+_CHUNK_LINES = 1024   # iter_entities reads this many lines ahead
 
 __all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "parse_line_full",
            "Block", "LineSyntaxError", "GCodeError", "Program"]
@@ -38,17 +41,12 @@ __all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "
 
 def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool) -> Program:
     interp = Interpreter(file, setup, all_errors)
-    n = 0
     # The entity list only grows and holds no cycles: the cyclic collector would rescan
     # it again and again (half the run time on a 200,000-line program).
     gc_was_enabled = gc.isenabled()
     gc.disable()
     try:
-        for n, text in enumerate(lines, 1):
-            interp.feed(n, text)
-            if interp.done:
-                break
-        interp.finish(n)
+        interp.finish(interp.run(lines))
     finally:
         if gc_was_enabled:
             gc.enable()
@@ -79,12 +77,13 @@ def iter_entities(lines: Iterable[str], file: str = "<string>", *,
     """Entities as the lines are read; raises GCodeError at the first error."""
     interp = Interpreter(file, setup, all_errors=False)
     out = interp.out
+    it = iter(lines)
     n = 0
-    for n, text in enumerate(lines, 1):
-        interp.feed(n, text)
-        if out:
-            yield from out
-            out.clear()
-        if interp.done:
+    while not interp.done:
+        chunk = list(islice(it, _CHUNK_LINES))
+        if not chunk:
             break
+        n = interp.run(chunk, n + 1)
+        yield from out
+        out.clear()
     interp.finish(n)

@@ -7,6 +7,8 @@ G0/G1 blocks (axis words, F, N only) take a short path with the same checks.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from ipr import nurbs_blocks
 from ipr.arcs import make_arc
 from ipr.block import AXES, BlockSpec, analyse
@@ -97,20 +99,64 @@ class Interpreter:
         else:
             spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
             fast = None
-            if spec.__class__ is BlockSpec and spec.linear:
+            if spec.__class__ is BlockSpec and spec.linear and not tpl.delete:
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
-                fast = (spec.motion, tuple((k, part[i]) for k, i in spec.axis_idx),
-                        part.get(spec.f_index))
+                axis_parts = {k: part[i] for k, i in spec.axis_idx}
+                ends = _end_functions(axis_parts) if axis_parts else (None, None)
+                fast = (spec.motion, part.get(spec.f_index), *ends)
             plan = (tpl, spec, fast)
         self._plans[shape] = plan
         return plan
 
     def feed(self, line: int, text: str) -> None:
-        if self.done:
-            return
-        parts = split_parts(text)
+        """Interpret one line."""
+        if not self.done:
+            parts = split_parts(text)
+            self._feed_parts(line, text, parts, self._plan_of(parts))
+
+    def run(self, lines: Iterable[str], first: int = 1) -> int:
+        """Interpret lines numbered from `first` until they run out or the program ends;
+        returns the number of the last line read. Plain G0/G1 lines are done inline."""
+        state, out, plans = self.state, self.out, self._plans
+        n = first - 1
+        for n, text in enumerate(lines, first):
+            if self.done:
+                return n - 1
+            parts = split_parts(text)
+            shape = "\x00".join(parts[0::2])
+            plan = plans[shape] if shape in plans else self._plan(shape)
+            if "\x00" in text:   # the shape's slot marker: such a line takes the full grammar
+                plan = None
+            fast = plan[2] if plan is not None else None
+            if fast is not None and state.nurbs is None:
+                motion = fast[0] if fast[0] is not None else state.motion
+                if motion == 10 or motion == 0:
+                    _, f_part, end_abs, end_inc = fast
+                    unit = state.unit
+                    feed_mm_s = float(parts[f_part]) * unit / 60.0 if f_part is not None else state.feed_mm_s
+                    if feed_mm_s > 0.0 or motion == 0 and feed_mm_s == 0.0:
+                        if end_abs is not None:
+                            pos = state.pos
+                            end = (end_abs(parts, pos, unit, state.offset) if state.absolute
+                                   else end_inc(parts, pos, unit, state.offset))
+                            if motion == 10:
+                                out.append(Line(n, pos, end, feed_mm_s, state.path))
+                            else:
+                                out.append(Rapid(n, pos, end, state.path))
+                            state.pos = end
+                        state.feed_mm_s = feed_mm_s
+                        state.motion = motion
+                        continue
+            self._feed_parts(n, text, parts, plan)   # everything else, and the error cases
+        return n
+
+    def _plan_of(self, parts: list[str]):
+        if any("\x00" in p for p in parts):
+            return None
         shape = "\x00".join(parts[0::2])
-        plan = self._plans[shape] if shape in self._plans else self._plan(shape)
+        return self._plans[shape] if shape in self._plans else self._plan(shape)
+
+    def _feed_parts(self, line: int, text: str, parts: list[str], plan) -> None:
         try:
             if plan is None:
                 return self._full(line, text)
@@ -170,29 +216,21 @@ class Interpreter:
     def _linear(self, motion: int, fast: tuple, parts: list, line: int) -> None:
         """G0/G1 with only axis words, F and N: same checks as _execute, less overhead."""
         s = self.state
-        _, axis_parts, f_part = fast
+        _, f_part, end_abs, end_inc = fast
         feed_mm_s = s.feed_mm_s
         if f_part is not None:
             f = float(parts[f_part])
             if f < 0.0:
                 raise BlockError("E-VALUE", f"negative feed rate F{f:g}", col=_col(parts, f_part))
             feed_mm_s = f * s.unit / 60.0
-        if axis_parts:
+        if end_abs is not None:
             pos = s.pos
-            end = list(pos)
             unit = s.unit
-            if s.absolute:
-                off = s.offset
-                for k, p in axis_parts:
-                    end[k] = float(parts[p]) * unit + off[k]
-            else:
-                for k, p in axis_parts:
-                    end[k] += float(parts[p]) * unit
-            end = tuple(end)
+            end = (end_abs if s.absolute else end_inc)(parts, pos, unit, s.offset)
             if motion == 10:
                 if feed_mm_s <= 0.0:
                     raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
-                                     col=_col(parts, axis_parts[0][1]))
+                                     col=_col(parts, _first_slot(end_abs)))
                 self.out.append(Line(line, pos, end, feed_mm_s, s.path))
             else:
                 self.out.append(Rapid(line, pos, end, s.path))
@@ -403,6 +441,29 @@ class Interpreter:
                       st.pos[b] + (vals[idx[ib]] * unit if ib in idx else 0.0))
         return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path, center_ab=center, turns=turns,
                         word=idx[offs[0]], unit_mm=unit)
+
+
+def _end_functions(axis_parts: dict[int, int]):
+    """The compiled word template of a plain G0/G1 shape: two functions from the line's
+    parts (ipr.syntax.split_parts) to the end point, absolute (G90) and incremental (G91).
+    `axis_parts` maps axis 0..2 to the index of its number in parts; omitted axes stay."""
+    absolute, incremental = [], []
+    for k in range(3):
+        if k in axis_parts:
+            absolute.append(f"float(p[{axis_parts[k]}]) * u + o[{k}]")
+            incremental.append(f"pos[{k}] + float(p[{axis_parts[k]}]) * u")
+        else:
+            absolute.append(f"pos[{k}]")
+            incremental.append(f"pos[{k}]")
+    make = "lambda p, pos, u, o: ({},)"
+    end_abs = eval(make.format(", ".join(absolute)), {"float": float})
+    end_inc = eval(make.format(", ".join(incremental)), {"float": float})
+    end_abs.first_part = end_inc.first_part = min(axis_parts.values())
+    return end_abs, end_inc
+
+
+def _first_slot(end_function) -> int:
+    return end_function.first_part
 
 
 def _col(parts: list[str], p: int) -> int:

@@ -202,6 +202,8 @@ def split_parts(text: str) -> list[str]:
 
 def split_line(text: str) -> tuple[Template | None, list[str]]:
     """The line's template (None: not simple) and its slot numbers as text."""
+    if "\x00" in text:   # the slot marker itself: only the full grammar is unambiguous
+        return None, []
     parts = _SLOT.split(text)
     return template_for("\x00".join(parts[0::2])), parts[1::2]
 
