@@ -27,7 +27,7 @@ from ipo import lookahead as la
 from ipo.config import MachineConfig
 from ipo.limits import sample_caps
 from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
-from ipo.pieces import KIND_NURBS, Motion, Pieces, build, evaluate
+from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
 from ipo.roughness import cusp_height_mm
 from ipo.sampling import Samples, nurbs_table, sample
@@ -132,12 +132,13 @@ class FeedPlanner:
         """Arcs and NURBS (lines take the lean path in run)."""
         if self._smp is None and not self._motions:
             self._check_start(e)
-        idx = -1
-        if isinstance(e, Nurbs):
-            idx = self._n_nurbs
-            self._n_nurbs += 1
-            self._nurbs[idx] = NurbsDriver(e, nurbs_table(e), self.method)
-        self._motions.append(Motion(e, self._rpm, idx))
+        self._motions.append(Motion(e, self._rpm, self._add_nurbs(e) if isinstance(e, Nurbs) else -1))
+
+    def _add_nurbs(self, e: Nurbs) -> int:
+        idx = self._n_nurbs
+        self._n_nurbs += 1
+        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e), self.method)
+        return idx
 
     def _build_pending_event(self, e) -> None:
         """An event happens where the motions read so far end: at the end of the held-back
@@ -165,7 +166,7 @@ class FeedPlanner:
             return
         pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
                          blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
-                         nurbs_length=lambda i: self._nurbs[i].table.length)
+                         nurbs_length=lambda i: self._nurbs[i].table.length, add_blend=self._add_nurbs)
         if final:
             self._motions = []
         else:
@@ -176,7 +177,7 @@ class FeedPlanner:
     def _append(self, pc: Pieces) -> None:
         if len(pc) == 0:
             return
-        tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind == KIND_NURBS]}
+        tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
         smp = sample(pc, self._s_end, tables, end_gap_mm=2 * self._v_top * self.T)
         if self._pieces is None:
             base = self._piece_base
@@ -252,9 +253,9 @@ class FeedPlanner:
         # else it is accelerating or braking
         k0, k1 = src[:-1], src[:-1] + 1
         with np.errstate(divide="ignore", invalid="ignore"):
-            r0 = np.where(xs[:-1] >= cap[k0] * 0.995, 1, 0)
-            r1 = np.where(xs[1:] >= cap[k1] * 0.995, 1, 0)
-        seg_reason = np.where(r0 > 0, reason[k0], np.where(r1 > 0, reason[k1], LIMIT_ACCEL)).astype(np.int8)
+            r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
+            r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
+        seg_reason = np.where(r0, reason[k0], np.where(r1, reason[k1], LIMIT_ACCEL)).astype(np.int8)
         tc = la.sample_times(s, xs)
         c_ref = len(s) - 1
         t_next = self._phase
@@ -307,6 +308,11 @@ class FeedPlanner:
         nurbs = self._pieces.kind[loc] == KIND_NURBS
         if nurbs.any():
             self._nurbs_points(pos, loc, sv, s_prev, nurbs)
+        blend = np.nonzero(self._pieces.kind[loc] == KIND_BLEND)[0]
+        for p in np.unique(loc[blend]):
+            at = blend[loc[blend] == p]
+            drv = self._nurbs[int(self._pieces.nurbs[p])]
+            pos[at] = drv.table.points_at(drv.entity, sv[at] - self._pstart[p])
         feed = np.diff(sv, prepend=s_prev) / self.T
         line = self._pieces.line[loc]
         inc, end = quantise(pos, self.cfg.blu_mm, self.blu)

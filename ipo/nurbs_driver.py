@@ -13,8 +13,8 @@ import numpy as np
 from ipo.sampling import NurbsTable
 from ipo.steppers import make_stepper
 
-# The stepper's chords carry a small bias (about 1e-7 of a step); re-reading its arc
-# position this often keeps the accumulated lag far below what a drive could feel.
+# The stepper's chords carry a small bias (about 1e-6 of a step, more at start-up);
+# re-reading its arc position this often keeps the lag far below what a drive could feel.
 RESYNC_PERIODS = 32
 
 
@@ -27,6 +27,7 @@ class NurbsDriver:
         self.s_reached = 0.0  # arc length the stepper has reached
         self.s_planned = 0.0  # arc length the schedule asked for so far
         self.gain = 1.0  # realised arc per asked chord, learnt chunk by chunk
+        self.chunk = 1  # periods per stepper call: doubles up to RESYNC_PERIODS while the gain settles
         self.end = np.array(entity.points[-1], dtype=float)
 
     def points(self, sigma: np.ndarray, sigma_before: float) -> np.ndarray:
@@ -39,11 +40,12 @@ class NurbsDriver:
         if self.stepper is None:
             lead = max(-sigma_before, 0.0)
             self.stepper = make_stepper(self.entity, method=self.method, lead_mm=lead)
-        for a in range(0, n, RESYNC_PERIODS):
-            if self.stepper.done:
-                break
-            b = min(a + RESYNC_PERIODS, n)
+        a = 0
+        while a < n and not self.stepper.done:
+            b = min(a + self.chunk, n)
             out[a:b] = self._advance(target[a:b], lead if a == 0 else 0.0)
+            self.chunk = min(2 * self.chunk, RESYNC_PERIODS)
+            a = b
         return out
 
     def _advance(self, target: np.ndarray, lead: float) -> np.ndarray:

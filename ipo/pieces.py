@@ -25,9 +25,11 @@ import numpy as np
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 KIND_ANALYTIC = 0
-KIND_NURBS = 1
+KIND_NURBS = 1  # a NURBS entity: walked by its stepper
+KIND_BLEND = 2  # a corner blend curve (a cubic): evaluated by arc length directly
 _COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
 _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
+_CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs are crossed as they are
 
 
 @dataclass(slots=True)
@@ -130,13 +132,14 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
 
 
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, nurbs_length) -> tuple[Pieces, float]:
+          rapid_mm_s: float, nurbs_length, add_blend) -> tuple[Pieces, float]:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
     Without `final`, the last motion is held back (its end corner needs the next move);
     the returned trim is how much of its start the corner blend already took: pass it
     back as lead_trim_mm with the held-back motion first in the next call.
-    `nurbs_length(i)` gives the arc length of the NURBS with owner index i.
+    `nurbs_length(i)` gives the arc length of the NURBS with owner index i;
+    `add_blend(nurbs_entity)` registers a corner blend curve and returns its index.
     """
     n = len(motions)
     ents = [m.entity for m in motions]
@@ -160,19 +163,35 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     vec = end - start
     length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
-    # corner blends between consecutive line-like moves: junction j joins moves j and j+1
+    arcs = _empty(n)  # the untrimmed arcs, for their lengths, tangents and points
+    is_arc = np.zeros(n, bool)
+    t_in, t_out = unit.copy(), unit.copy()
+    for i, e in enumerate(ents):
+        if isinstance(e, Arc):
+            _arc_piece(arcs, i, e)
+            is_arc[i] = True
+            length[i] = arcs.length[i]
+            ends = frame(arcs, np.array([i, i]), np.array([0.0, length[i]]))[0]
+            t_in[i], t_out[i] = ends
+    # corner blends: junction j joins moves j and j+1
     trim_in, trim_out = np.zeros(n), np.zeros(n)
     trim_in[0] = lead_trim_mm
-    nj = n - 1
     both = line_like[:-1] & line_like[1:] & (length[:-1] > 0) & (length[1:] > 0) & (tol[:-1] > 0)
-    cos_t = np.clip(np.einsum("ij,ij->i", unit[:-1], unit[1:]), -1.0, 1.0)
-    theta = np.where(both, np.arccos(cos_t), 0.0)
+    cos_t = np.clip(np.einsum("ij,ij->i", t_out[:-1], t_in[1:]), -1.0, 1.0)
+    theta = np.arccos(cos_t)
     blend = both & (theta > _COLLINEAR_RAD) & (theta < _REVERSAL_RAD)
     half = np.where(blend, 0.5 * theta, 0.25)
     avail = 0.5 * np.minimum(length[:-1], length[1:])
     r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
     d = radius * np.tan(half)
+    # a corner that involves an arc gets a cubic blend from the point d before it to the
+    # point d after it, tangent to both moves; its deviation from the corner is about
+    # (d / 2) sin(theta / 2), so d = 2 P / sin(theta / 2) keeps it within P
+    movable = line_like | is_arc
+    curve = (movable[:-1] & movable[1:] & ~both & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
+             & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
+    d = np.where(curve, np.minimum(avail, 2.0 * tol[:-1] / np.sin(np.maximum(0.5 * theta, 1e-12))), d)
     trim_out[:-1] = d
     trim_in[1:] += d
     emit = n if final else n - 1
@@ -198,10 +217,23 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     pc.radius[k] = radius[jb]
     pc.omega[k] = 1.0 / radius[jb]
     pc.length[k] = radius[jb] * theta[jb]
+    for j in np.nonzero(curve[:emit])[0]:
+        a_pt, b_pt = _point(arcs, start, unit, is_arc, j, length[j] - d[j]), _point(arcs, start, unit, is_arc,
+                                                                                    j + 1, d[j])
+        ta = _tangent(arcs, unit, is_arc, j, length[j] - d[j])
+        tb = _tangent(arcs, unit, is_arc, j + 1, d[j])
+        h = 2.0 / 3.0 * d[j]
+        cubic = Nurbs(int(lines[j]), 3, np.array([0, 0, 0, 0, 1, 1, 1, 1.0]), np.ones(4),
+                      np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), float(feed[j]))
+        idx = add_blend(cubic)
+        pc.kind[bl[j]] = KIND_BLEND
+        pc.nurbs[bl[j]] = idx
+        pc.length[bl[j]] = nurbs_length(idx)
+        pc.c[bl[j]] = a_pt
     for i in np.nonzero(~ll)[0]:
         e, slot = ents[i], 2 * i
         if isinstance(e, Arc):
-            _arc_piece(pc, slot, e)
+            _copy_trimmed_arc(pc, slot, arcs, i, trim_in[i], trim_out[i])
         else:
             pc.kind[slot] = KIND_NURBS
             pc.nurbs[slot] = motions[i].nurbs_index
@@ -209,3 +241,29 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             pc.c[slot] = start[i]
     keep = pc.length > 0
     return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
+
+
+def _point(arcs: Pieces, start, unit, is_arc, i: int, sigma: float) -> np.ndarray:
+    if is_arc[i]:
+        return evaluate(arcs, np.array([i]), np.array([sigma]))[0]
+    return start[i] + unit[i] * sigma
+
+
+def _tangent(arcs: Pieces, unit, is_arc, i: int, sigma: float) -> np.ndarray:
+    if is_arc[i]:
+        return frame(arcs, np.array([i]), np.array([sigma]))[0][0]
+    return unit[i]
+
+
+def _copy_trimmed_arc(pc: Pieces, slot: int, arcs: Pieces, i: int, trim_in: float, trim_out: float) -> None:
+    """The arc i without its first trim_in and last trim_out millimetres."""
+    phi = arcs.omega[i] * trim_in
+    cs, sn = np.cos(phi), np.sin(phi)
+    pc.e1[slot] = cs * arcs.e1[i] + sn * arcs.e2[i]
+    pc.e2[slot] = -sn * arcs.e1[i] + cs * arcs.e2[i]
+    pc.c[slot] = arcs.c[i] + arcs.w[i] * trim_in
+    pc.w[slot] = arcs.w[i]
+    pc.radius[slot] = arcs.radius[i] + arcs.dr[i] * phi
+    pc.dr[slot] = arcs.dr[i]
+    pc.omega[slot] = arcs.omega[i]
+    pc.length[slot] = max(arcs.length[i] - trim_in - trim_out, 0.0)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ipo import nurbs as nk
-from ipo.pieces import KIND_NURBS, Pieces, frame
+from ipo.pieces import KIND_ANALYTIC, Pieces, frame
 
 MAX_TURN_RAD = 0.03
 MAX_SPACING_MM = 2.0
@@ -61,6 +61,25 @@ class NurbsTable:
         q = (u - self.u[k]) / h
         h00, h10, h01, h11 = 2*q**3 - 3*q**2 + 1, q**3 - 2*q**2 + q, -2*q**3 + 3*q**2, q**3 - q**2
         return float(h00 * self.s[k] + h10 * h * self.speed[k] + h01 * self.s[k + 1] + h11 * h * self.speed[k + 1])
+
+    def points_at(self, e, s: np.ndarray) -> np.ndarray:
+        """Points of NURBS e at arc lengths s: u from the table, then Newton on the arc
+        length (integrated by 5-point Gauss-Legendre from the nearest sample)."""
+        s = np.clip(s, 0.0, self.length)
+        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
+        h = self.s[k + 1] - self.s[k]
+        q = np.divide(s - self.s[k], h, out=np.zeros_like(s), where=h > 0)
+        u = self.u[k] + q * (self.u[k + 1] - self.u[k])
+        xg, wg = np.polynomial.legendre.leggauss(5)
+        for _ in range(3):
+            du = u - self.u[k]
+            uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
+            sp = np.linalg.norm(nk.curve_derivs(e.degree, e.knots, e.weights, e.points, uu.ravel(), 1)[1],
+                                axis=1).reshape(uu.shape)
+            s_u = self.s[k] + 0.5 * du * (sp @ wg)
+            speed = np.linalg.norm(nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, 1)[1], axis=1)
+            u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
+        return nk.curve_points(e.degree, e.knots, e.weights, e.points, u)
 
     def curvature_at(self, s: np.ndarray) -> np.ndarray:
         return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
@@ -113,7 +132,7 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     """
     n_int = np.maximum(np.ceil(pc.length / MAX_SPACING_MM), np.ceil(pc.omega * pc.length / MAX_TURN_RAD))
     n_int = np.maximum(n_int, 1).astype(np.int64)
-    nurbs_idx = np.nonzero(pc.kind == KIND_NURBS)[0]
+    nurbs_idx = np.nonzero(pc.kind != KIND_ANALYTIC)[0]
     for i in nurbs_idx:
         n_int[i] = len(tables[int(pc.nurbs[i])].s) - 1
     counts = n_int + 1
@@ -121,7 +140,7 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])
     j = np.arange(len(piece)) - np.repeat(first, counts)
     sigma = pc.length[piece] * j / n_int[piece]
-    gap = (pc.kind != KIND_NURBS) & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
+    gap = (pc.kind == KIND_ANALYTIC) & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
     if gap.any():
         g = np.nonzero(gap)[0]
         piece = np.concatenate([piece, g, g])
