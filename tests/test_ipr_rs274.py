@@ -142,7 +142,7 @@ G20 G1 X1 F10
 G21 G1 X5 F300
 M2
 """),
-    "expressions": (8, """G21 G90
+    "expressions": (12, """G21 G90
 #1=2
 #<scale>=0.5
 #2=[#1*3]
@@ -154,6 +154,10 @@ G1 X[ACOS[0.5]/10] Y[ASIN[0.5]/10] Z[TAN[45]+COS[60]]
 G1 X#1 Y[1 LT 2] Z[[3 GE 2] + [1 EQ 1] + [2 NE 2]]
 G1 X[1 AND 0] Y[1 OR 0] Z[1 XOR 1]
 G1 X[-#1] Y[--2] Z[1-2-3]
+G1 X[1 + 2 * 3 ** 2] Y[2 ** 3 ** 2 / 32] Z[1 + 2 LT 4 AND 1]
+G1 X[-2 ** 2] Y[10 - 4 - 3] Z[7 MOD 4 * 2]
+G1 X[2 * 3 MOD 4] Y[1 OR 0 AND 0] Z[5 GT 3 EQ 1]
+G1 X[-7 MOD 3] Y[ATAN[-1]/[-1]] Z[FIX[-2.5] + FUP[-2.5] + ROUND[-2.5] + ROUND[-0.5]]
 M2
 """),
     "syntax": (7, """%
