@@ -40,9 +40,11 @@ class GrblDouble:
     """The protocol state machine; `receive` takes bytes, `tick` advances time; output in `outbox`."""
 
     def __init__(self, *, rx_size=128, planner_blocks=15, drain_s_per_block=0.0, wco=(5.0, -3.0, 1.0),
-                 settings=None, faults: Faults | None = None):
+                 settings=None, faults: Faults | None = None, partial_blocks: bool = False):
         self.rx_size, self.planner_blocks = rx_size, planner_blocks
         self.drain_s = drain_s_per_block
+        self.partial_blocks = partial_blocks  # a hold stops inside the running block (lines and arcs)
+        self.partials: list[tuple[str, tuple]] = []  # blocks cut short by a reset: (line, where)
         self.wco = tuple(wco)
         self.settings = settings or {0: 10, 1: 25, 10: 1, 11: 0.01, 12: 0.002, 13: 0, 20: 0, 21: 0, 22: 0,
                                      100: 250.0, 101: 250.0, 102: 250.0, 110: 6000.0, 111: 6000.0,
@@ -62,6 +64,7 @@ class GrblDouble:
         self.feed_ov = 100
         self.hung = False
         self._reports = 0
+        self._ov_reported = 100
         self._t_block = 0.0
         self._busy_until = 0.0
         self._reset_modal()
@@ -80,11 +83,16 @@ class GrblDouble:
                 self._status()
             elif c == 0x21:
                 if self.state == "Run" or (self.state == "Idle" and self.planner):
+                    self._drain(now)
+                    if self.partial_blocks and self.planner and self.drain_s:
+                        self.pos = self._inside(self.planner[0], min(1.0, (now - self._t_block) / self.drain_s))
                     self.state, self.sub = "Hold", 0
             elif c == 0x7E:
                 if self.state == "Hold":
-                    self.state = "Run" if self.planner else "Idle"
+                    self.state, self._t_block = ("Run" if self.planner else "Idle"), now
             elif c == 0x18:
+                if self.partial_blocks and self.planner and self.pos != list(self.planner[0][1]):
+                    self.partials.append((self.planner[0][0], tuple(self.pos)))
                 self._reset()
             elif 0x90 <= c <= 0x94:
                 self.feed_ov = {0x90: 100, 0x91: self.feed_ov + 10, 0x92: self.feed_ov - 10,
@@ -121,8 +129,9 @@ class GrblDouble:
         s = f"<{state}|MPos:{mpos}|Bf:{self.planner_blocks - len(self.planner)},{free_rx}|FS:{feed:.0f},0"
         if self._reports % 10 == 0:
             s += "|WCO:" + ",".join(f"{o:.3f}" for o in self.wco)
-        elif self._reports % 10 == 1:
+        elif self._reports % 10 == 1 or self.feed_ov != self._ov_reported:  # Ov at once when it changed
             s += f"|Ov:{self.feed_ov},100,100"
+            self._ov_reported = self.feed_ov
         self._reports += 1
         self.outbox += (s + ">\r\n").encode()
 
@@ -149,7 +158,7 @@ class GrblDouble:
         if self.state == "Idle" and self.planner:
             self.state, self._t_block = "Run", now
         while self.state == "Run" and self.planner and now - self._t_block >= self.drain_s:
-            text, target = self.planner.popleft()
+            text, target, _ = self.planner.popleft()
             self.pos = list(target)
             self.executed.append((text, tuple(target)))
             self._t_block += self.drain_s if self.drain_s else 0.0
@@ -157,6 +166,23 @@ class GrblDouble:
                 self._t_block = now
         if self.state == "Run" and not self.planner:
             self.state = "Idle"
+
+    def _inside(self, block, f: float) -> list[float]:
+        """The point a fraction f along a block that starts at the machine position."""
+        _, target, arc = block
+        s = self.pos
+        if arc is None:
+            return [p + f * (t - p) for p, t in zip(s, target)]
+        a, b, n, ca, cb, ccw = arc
+        a0 = math.atan2(s[b] - cb, s[a] - ca)
+        a1 = math.atan2(target[b] - cb, target[a] - ca)
+        sweep = (a1 - a0) % (2 * math.pi) if ccw else -((a0 - a1) % (2 * math.pi))
+        sweep = sweep or (2 * math.pi if ccw else -2 * math.pi)
+        r = math.hypot(s[a] - ca, s[b] - cb)
+        out = list(s)
+        out[a], out[b] = ca + r * math.cos(a0 + f * sweep), cb + r * math.sin(a0 + f * sweep)
+        out[n] = s[n] + f * (target[n] - s[n])
+        return out
 
     # --- lines ------------------------------------------------------------
     def _answer(self, text: str):
@@ -265,9 +291,13 @@ class GrblDouble:
                 r1 = math.hypot(target[a] - ca, target[b] - cb)
                 if abs(r0 - r1) > max(0.005, 0.001 * r0):
                     return 33
+            arc = None
+            if motion in (2, 3):
+                n = 3 - a - b
+                arc = (a, b, n, ca, cb, motion == 3)
             self.motion = motion
             self.parser_pos = target
-            self.planner.append((line, tuple(target)))
+            self.planner.append((line, tuple(target), arc))
         elif ms or (not gs and words.keys() - {"F"}):
             self.executed.append((line, None))
         return 0

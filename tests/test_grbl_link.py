@@ -15,7 +15,8 @@ from machine.grbl.link import GrblLink, LinkError
 from machine.grbl.program import StreamLine, stream_lines
 
 CFG = default_config()
-FAST = dict(poll_interval_s=0.02, settle_s=0.03, stall_timeout_s=0.5, reset_timeout_s=2.0, idle_timeout_s=10.0)
+# Short poll and settle times keep the tests quick; the timeouts stay generous for a loaded machine.
+FAST = dict(poll_interval_s=0.02, settle_s=0.03, stall_timeout_s=3.0, reset_timeout_s=5.0, idle_timeout_s=20.0)
 
 
 def _program():
@@ -39,8 +40,8 @@ LINES = list(stream_lines(_program(), CFG))
 MOTION_ENDS = [l.end_mm for l in LINES if l.motion]
 
 
-def _session(port, lines, *, resume_from=None, unlock=False):
-    link = GrblLink(port, **FAST)
+def _session(port, lines, *, resume_from=None, unlock=False, **kw):
+    link = GrblLink(port, **{**FAST, **kw})
     try:
         link.connect(CFG, unlock=unlock)
         if resume_from is None:
@@ -86,7 +87,9 @@ def test_clean_stream_over_pty_fills_the_rx_buffer_and_runs_every_line():
 
 def test_error_on_a_line_stops_reports_and_resume_finishes():
     bad = next(l for l in LINES if l.source_line == 40)
-    d = GrblDouble(drain_s_per_block=0.003, faults=Faults(error_on={bad.text: 20}))
+    # a planner that takes 150 ms to run dry: the hold stops the machine before the lines
+    # grbl still has after the rejected one
+    d = GrblDouble(drain_s_per_block=0.01, faults=Faults(error_on={bad.text: 20}))
     with PtyServer(d).start() as srv:
         res, _ = _session(srv.port, LINES)
         assert not res.completed and res.fault.kind == "error"
@@ -99,6 +102,41 @@ def test_error_on_a_line_stops_reports_and_resume_finishes():
     assert point.seq == res.resume.seq
     _assert_covers(res.ledger, res2.ledger, len(LINES))
     _assert_ran_once(d)
+
+
+@pytest.mark.parametrize("error_line, blocks, cut_kind", [(46, 15, "G1"), (68, 2, "G2")])
+def test_hold_inside_a_block_resumes_from_the_machine_position(error_line, blocks, cut_kind):
+    """A hold stops inside the running block (a line, or with a 2-block planner the full
+    circle): the resumed stream sends that line from where the machine stands."""
+    bad = next(l for l in LINES if l.source_line == error_line)
+    d = GrblDouble(drain_s_per_block=0.03, planner_blocks=blocks, partial_blocks=True,
+                   faults=Faults(error_on={bad.text: 20}))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+        assert res.fault.kind == "error" and res.resume.partial  # stopped inside a block, not at its end
+        cut, where = d.partials[-1]
+        assert cut_kind in cut
+        assert res.resume.at_mm == pytest.approx(where, abs=1e-3)
+        res2, point = _session(srv.port, LINES, resume_from=res.resume.seq)
+    assert point.partial and point.seq == res.resume.seq
+    _assert_covers(res.ledger, res2.ledger, len(LINES))
+    _assert_ran_once(d)
+
+
+def test_lines_grbl_ran_past_a_rejected_line_are_reported_and_fail_the_ledger():
+    """With an empty planner grbl runs the lines it still has after an error at once:
+    the report says so and the ledger refuses to call the session complete."""
+    bad = next(l for l in LINES if l.source_line == 40)
+    d = GrblDouble(drain_s_per_block=0.0, faults=Faults(error_on={bad.text: 20}))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+    ran = [t for _, t in d.executed if t is not None]
+    assert res.resume.seq > bad.seq  # the link sends lines in bursts: the next ones were in grbl's RX buffer
+    assert f"grbl ran stream lines {bad.seq + 1}..{res.resume.seq - 1} after rejecting line {bad.seq}" \
+        in res.fault.message
+    with pytest.raises(LedgerError, match=f"line {bad.seq} .* error"):
+        res.ledger.check()
+    assert bad.end_mm not in [tuple(r) for r in ran]
 
 
 def test_alarm_stops_requires_unlock_and_resume_finishes():
@@ -157,7 +195,7 @@ def test_slow_acknowledgements_do_not_trip_the_stall_guard():
 def test_a_board_that_stops_answering_is_reported_with_the_last_ack():
     d = GrblDouble(drain_s_per_block=0.0, faults=Faults(hang_after_lines=32))
     with PtyServer(d).start() as srv:
-        res, _ = _session(srv.port, LINES)
+        res, _ = _session(srv.port, LINES, stall_timeout_s=0.5)
     assert res.fault.kind == "stalled"
     last = res.ledger.last_acknowledged
     assert last == 30  # $$ and $I were lines 1 and 2 the double counted
@@ -230,3 +268,41 @@ def test_connect_warns_where_grbl_rates_disagree_with_the_machine_file():
     assert "$121=500" in info.warnings[1] and "1000" in info.warnings[1]
     assert info.build.rx_buffer_bytes == 128 and info.build.planner_blocks == 15
     assert math.isclose(CFG.axes[0].max_velocity_mm_s * 60, 6000.0)
+
+
+def test_realtime_hold_resume_and_feed_override_reach_grbl():
+    from machine.grbl import protocol as P
+
+    d = GrblDouble(drain_s_per_block=0.002)
+    seen = []
+
+    def progress(link, ledger):
+        st = link.status
+        if not seen and ledger.last_acknowledged > 20:
+            link.realtime(P.FEED_HOLD)
+            link.realtime(P.FEED_OV_PLUS_10)
+            link.realtime(P.FEED_OV_PLUS_1)
+            seen.append("held")
+        elif seen == ["held"] and st is not None and st.state == "Hold":
+            link.realtime(P.CYCLE_RESUME)
+            seen.append("resumed")
+        if st is not None and st.overrides == (111, 100, 100) and "ov" not in seen:
+            seen.append("ov")
+
+    with PtyServer(d).start() as srv:
+        link = GrblLink(srv.port, **FAST)
+        link.connect(CFG)
+        res = link.stream(LINES, Ledger(1), on_progress=progress, progress_interval_s=0.0)
+        link.close()
+    assert res.completed and seen[:2] == ["held", "resumed"] and "ov" in seen
+    assert d.feed_ov == 111
+    _assert_ran_once(d)
+    with pytest.raises(ValueError, match="not a grbl realtime command"):
+        link.realtime(b"G")
+
+
+def test_loop_url_without_grbl_is_a_clear_error():
+    link = GrblLink("loop://", reset_timeout_s=0.2, settle_s=0.01)
+    with pytest.raises(LinkError, match="no answer"):
+        link.connect(CFG)
+    link.close()

@@ -337,6 +337,12 @@ class GrblLink:
             result.fault.message += f"; {exc}"
             return
         ledger.resume_from = result.resume.seq
+        if result.fault.kind == "error" and result.resume.seq > result.fault.seq:
+            # grbl goes on with the lines already in its buffer after an error: character
+            # counting cannot take them back, and the hold may come too late to stop them
+            result.fault.message += (f"; WARNING: grbl ran stream lines {result.fault.seq + 1}.."
+                                     f"{result.resume.seq - 1} after rejecting line {result.fault.seq}, so "
+                                     f"that line's motion was not made")
         result.fault.message += (f"; machine stopped at X{st.wpos[0]:.3f} Y{st.wpos[1]:.3f} Z{st.wpos[2]:.3f}; "
                                  f"resume with --resume-from {result.resume.seq}")
 
