@@ -34,7 +34,7 @@ def test_dry_run_writes_exactly_the_stream():
 def test_stream_resume_after_error_through_the_cli():
     lines = _expected_lines()
     bad = lines[len(lines) // 2]
-    d = GrblDouble(drain_s_per_block=0.002, faults=Faults(error_on={bad.text: 33}))
+    d = GrblDouble(drain_s_per_block=0.01, faults=Faults(error_on={bad.text: 33}))  # planner never runs dry
     with PtyServer(d).start() as srv:
         res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20"])
         assert res.exit_code == 1
