@@ -52,7 +52,7 @@ def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool)
             gc.enable()
     if interp.diagnostics:
         raise GCodeError(interp.diagnostics)
-    return Program(file, interp.out, interp.warnings, interp.program_number)
+    return Program(file, interp.out, interp.warnings, interp.state.program_number)
 
 
 def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,

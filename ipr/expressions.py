@@ -63,7 +63,7 @@ def _unary(name: str, x: float) -> float:
             raise BlockError("E-EXPR", f"LN[{x:g}]: argument not positive")
         return math.log(x)
     if name == "round":
-        return float(math.floor(x + 0.5))  # RS274NGC rounds halves up
+        return float(math.floor(abs(x) + 0.5)) * (1.0 if x >= 0 else -1.0)  # halves away from zero
     if name == "sqrt":
         if x < 0.0:
             raise BlockError("E-EXPR", f"SQRT[{x:g}]: negative argument")
@@ -85,7 +85,8 @@ def _binary(op: str, a: float, b: float) -> float:
     if op == "mod":
         if b == 0.0:
             raise BlockError("E-EXPR", "MOD by zero")
-        return math.fmod(a, b) if math.fmod(a, b) * b >= 0 else math.fmod(a, b) + b
+        r = math.fmod(a, b)
+        return r + abs(b) if r < 0.0 else r   # never negative, as in RS274NGC
     if op == "**":
         try:
             r = a ** b

@@ -10,17 +10,15 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from ipr import nurbs_blocks
-from ipr.arcs import make_arc
-from ipr.block import AXES, BlockSpec, analyse
-from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Diagnostic, Dwell, GCodeError, Line,
-                          Message, PathControl, ProgramEnd, Rapid, Spindle, Stop, ToolChange)
+from ipr.block import BlockSpec, analyse
+from ipr.entities import Diagnostic, GCodeError, Line, Message, Rapid
 from ipr.errors import BlockError
+from ipr.execute import execute_block, target
 from ipr.expressions import evaluate, param_key
-from ipr.modal import INCH_MM, ModalState, Setup, Staged
+from ipr.modal import ModalState, Setup, Staged
 from ipr.syntax import LineSyntaxError, parse_line_columns, split_parts, template_for
 
-_PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
-MAX_VALUE = 1e30   # the fast path reads at most 30 digits; expressions may go further
+MAX_VALUE = 1e31   # the fast path reads at most 30 digits; expressions may go further
 
 
 def spec_letter(spec: BlockSpec, word: int) -> str:
@@ -28,23 +26,6 @@ def spec_letter(spec: BlockSpec, word: int) -> str:
         if i == word:
             return letter
     return "G/M"
-
-
-def target(st, spec: BlockSpec, vals, base, machine: bool = False):
-    """End point of the block's axis words from `base` (machine mm), as the distance mode says."""
-    end = list(base)
-    unit = st.unit
-    if machine:
-        for k, i in spec.axis_idx:
-            end[k] = vals[i] * unit
-    elif st.absolute:
-        off = st.offset
-        for k, i in spec.axis_idx:
-            end[k] = vals[i] * unit + off[k]
-    else:
-        for k, i in spec.axis_idx:
-            end[k] = base[k] + vals[i] * unit
-    return tuple(end)
 
 
 class Interpreter:
@@ -62,7 +43,6 @@ class Interpreter:
         self.warnings: list[Diagnostic] = []
         self._plans: dict = {}
         self._percents = 0
-        self.program_number: int | None = None
         self.done = False
 
     # ---- errors -------------------------------------------------------------------
@@ -110,14 +90,12 @@ class Interpreter:
 
     def feed(self, line: int, text: str) -> None:
         """Interpret one line."""
-        if not self.done:
-            parts = split_parts(text)
-            self._feed_parts(line, text, parts, self._plan_of(parts))
+        self.run((text,), line)
 
     def run(self, lines: Iterable[str], first: int = 1) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
-        returns the number of the last line read. Plain G0/G1 lines are done inline."""
-        state, out, plans = self.state, self.out, self._plans
+        returns the number of the last line read."""
+        state, plans = self.state, self._plans
         n = first - 1
         for n, text in enumerate(lines, first):
             if self.done:
@@ -127,54 +105,32 @@ class Interpreter:
             plan = plans[shape] if shape in plans else self._plan(shape)
             if "\x00" in text:   # the shape's slot marker: such a line takes the full grammar
                 plan = None
-            fast = plan[2] if plan is not None else None
-            if fast is not None and state.nurbs is None:
-                motion = fast[0] if fast[0] is not None else state.motion
-                if motion == 10 or motion == 0:
-                    _, f_part, end_abs, end_inc = fast
-                    unit = state.unit
-                    feed_mm_s = float(parts[f_part]) * unit / 60.0 if f_part is not None else state.feed_mm_s
-                    if feed_mm_s > 0.0 or motion == 0 and feed_mm_s == 0.0:
-                        if end_abs is not None:
-                            pos = state.pos
-                            end = (end_abs(parts, pos, unit, state.offset) if state.absolute
-                                   else end_inc(parts, pos, unit, state.offset))
-                            if motion == 10:
-                                out.append(Line(n, pos, end, feed_mm_s, state.path))
-                            else:
-                                out.append(Rapid(n, pos, end, state.path))
-                            state.pos = end
-                        state.feed_mm_s = feed_mm_s
-                        state.motion = motion
+            try:
+                if plan is None:
+                    self._full(n, text)
+                    continue
+                fast = plan[2]
+                if fast is not None and state.nurbs is None:
+                    motion = fast[0] if fast[0] is not None else state.motion
+                    if motion == 10 or motion == 0:
+                        self._linear(motion, fast, parts, n)
                         continue
-            self._feed_parts(n, text, parts, plan)   # everything else, and the error cases
+                self._template(plan, parts, n, text)
+            except BlockError as err:
+                self._fail(err, n, text)
         return n
 
-    def _plan_of(self, parts: list[str]):
-        if any("\x00" in p for p in parts):
-            return None
-        shape = "\x00".join(parts[0::2])
-        return self._plans[shape] if shape in self._plans else self._plan(shape)
-
-    def _feed_parts(self, line: int, text: str, parts: list[str], plan) -> None:
-        try:
-            if plan is None:
-                return self._full(line, text)
-            tpl, spec, fast = plan
-            if not tpl.letters or tpl.delete and self.setup.block_delete:
-                return
-            if spec.__class__ is BlockError:
-                raise spec
-            if fast is not None and self.state.nurbs is None:
-                motion = fast[0] if fast[0] is not None else self.state.motion
-                if motion == 10 or motion == 0:
-                    return self._linear(motion, fast, parts, line)
-            vals = list(tpl.fixed)
-            for i, s in zip(tpl.slots, parts[1::2]):
-                vals[i] = float(s)
-            self._execute(spec, vals, (), (), line, text)
-        except BlockError as err:
-            self._fail(err, line, text)
+    def _template(self, plan, parts: list[str], line: int, text: str) -> None:
+        """A simple line (words with plain numbers) that is not a plain G0/G1 move."""
+        tpl, spec, _ = plan
+        if not tpl.letters or tpl.delete and self.setup.block_delete:
+            return
+        if spec.__class__ is BlockError:
+            raise spec
+        vals = list(tpl.fixed)
+        for i, s in zip(tpl.slots, parts[1::2]):
+            vals[i] = float(s)
+        self._execute(spec, vals, (), (), line, text)
 
     def _full(self, line: int, text: str) -> None:
         """A line off the fast path: full grammar, expressions, parameters."""
@@ -263,39 +219,7 @@ class Interpreter:
                                   f"line {line} starts another motion", col=1, line=group.line),
                        group.line, "")
             return self._execute(spec, vals, assigns, messages, line, text)
-        if "F" in idx:
-            if vals[idx["F"]] < 0.0:
-                raise BlockError("E-VALUE", f"negative feed rate F{vals[idx['F']]:g}", idx["F"])
-            st.feed_mm_s = vals[idx["F"]] * st.unit / 60.0  # before a G20/G21 of this block
-        if "O" in idx:
-            number = _whole(vals[idx["O"]], "O", idx["O"])
-            st.after_commit.append(lambda: setattr(self, "program_number", number))
-        self._spindle_tool(st, spec, vals, out, notices, line)
-        if g.get("nonmodal") == 40:
-            p = vals[idx["P"]]
-            if p < 0.0:
-                raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
-            out.append(Dwell(line, p))
-        self._modes(st, spec, vals, notices)
-        nonmodal = g.get("nonmodal")
-        if nonmodal == 920:
-            pos, unit, gg = st.pos, st.unit, list(st.g92)
-            for k, i in spec.axis_idx:
-                gg[k] = pos[k] - st.coord_offset[k] - (st.tool_offset if k == 2 else 0.0) - vals[i] * unit
-            st.g92 = tuple(gg)
-            st.set_offsets()
-        elif nonmodal == 921:
-            st.g92 = (0.0, 0.0, 0.0)
-            st.set_offsets()
-        if "motion" in g:
-            st.motion = g["motion"]
-        if spec.moves(base.motion) and nonmodal != 920:
-            self._motion(st, spec, vals, out, notices, line)
-        stop = m.get("stop")
-        if stop is not None:
-            out.append(ProgramEnd(line) if stop in (20, 300) else Stop(line, optional=stop == 10))
-            if stop in (20, 300):
-                st.ended = True
+        execute_block(st, spec, vals, out, notices, line, self.setup, base.motion)
         self._commit(st, out, notices, assigns, line, text)
 
     def _commit(self, st: Staged, out, notices, assigns, line: int, text: str) -> None:
@@ -307,140 +231,6 @@ class Interpreter:
             self._notice(code, message, line, text, word, "warning" if code.startswith("W") else "notice")
         if self.state.ended:
             self.done = True
-
-    def _spindle_tool(self, st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
-        idx, m = spec.index, spec.m
-        if "S" in idx:
-            rpm = vals[idx["S"]]
-            if rpm < 0.0:
-                raise BlockError("E-VALUE", f"negative spindle speed S{rpm:g}", idx["S"])
-            st.spindle_rpm = rpm
-        if "T" in idx:
-            st.tool_selected = _whole(vals[idx["T"]], "T", idx["T"])
-        if m.get("toolchange") == 60:
-            tool = st.tool_selected
-            if tool is None:
-                raise BlockError("E-WORD-MISSING", "M6 needs a T word (no tool selected)", spec.where["toolchange"])
-            if tool and tool not in self.setup.tool_lengths_mm:
-                notices.append(("W-TOOL-UNKNOWN", f"tool T{tool} is not in the tool table", idx.get("T")))
-            st.tool_in_spindle = tool
-            out.append(ToolChange(line, tool))
-        spindle = m.get("spindle")
-        if spindle is not None:
-            st.spindle_dir = {30: "cw", 40: "ccw", 50: None}[spindle]
-        if spindle is not None or ("S" in idx and st.spindle_dir is not None):
-            out.append(Spindle(line, st.spindle_rpm, st.spindle_dir))
-        coolant = m.get("coolant")
-        if coolant is not None:
-            st.mist = coolant == 70 or (st.mist and coolant != 90)
-            st.flood = coolant == 80 or (st.flood and coolant != 90)
-            out.append(Coolant(line, st.mist, st.flood))
-
-    def _modes(self, st: Staged, spec: BlockSpec, vals, notices) -> None:
-        g, idx = spec.g, spec.index
-        if "plane" in g:
-            st.plane = _PLANES[g["plane"]]
-        if "units" in g:
-            st.unit = INCH_MM if g["units"] == 200 else 1.0
-        tl = g.get("tool_length")
-        if tl == 430:
-            h = _whole(vals[idx["H"]], "H", idx["H"]) if "H" in idx else st.tool_in_spindle
-            length = 0.0
-            if h:
-                if h in self.setup.tool_lengths_mm:
-                    length = float(self.setup.tool_lengths_mm[h])
-                else:
-                    notices.append(("W-TOOL-UNKNOWN", f"tool H{h} is not in the tool table: zero "
-                                    "length offset", idx.get("H")))
-            st.tool_offset = length
-            st.set_offsets()
-        elif tl == 490:
-            st.tool_offset = 0.0
-            st.set_offsets()
-        if "coord" in g:
-            st.coord = g["coord"]
-            st.coord_offset = self.setup.work_offset(g["coord"])
-            st.set_offsets()
-        path = g.get("path")
-        if path == 610:
-            st.path = EXACT_STOP
-        elif path == 640:
-            tol = [None, None]
-            for j, letter in enumerate("PQ"):
-                if letter in idx:
-                    v = vals[idx[letter]]
-                    if v < 0.0:
-                        raise BlockError("E-VALUE", f"negative G64 tolerance {letter}{v:g}", idx[letter])
-                    tol[j] = v * st.unit
-            st.path = PathControl(False, tol[0], tol[1])
-        d = g.get("distance")
-        if d is not None:
-            st.absolute = d == 900
-        ad = g.get("arc_distance")
-        if ad is not None:
-            st.arc_absolute = ad == 901
-
-    def _motion(self, st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
-        motion = st.motion
-        g53 = spec.g.get("nonmodal") == 530
-        if g53 and not st.absolute:
-            raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
-        if motion in (52, 62):
-            return nurbs_blocks.start_group(st, spec, vals, line, target, notices)
-        if motion == 53:
-            raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
-        end = target(st, spec, vals, st.pos, machine=g53)
-        if motion == 0:
-            out.append(Rapid(line, st.pos, end, st.path))
-        else:
-            feed_mm_s = st.feed_mm_s
-            if feed_mm_s <= 0.0:
-                word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
-                raise BlockError("E-FEED-ZERO", f"feed move with feed rate zero (program an F word)", word)
-            if motion == 10:
-                out.append(Line(line, st.pos, end, feed_mm_s, st.path))
-            else:
-                out.append(self._arc(st, spec, vals, end, feed_mm_s, line))
-        st.pos = end
-
-    def _arc(self, st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int):
-        idx, plane = spec.index, st.plane
-        a, b, n = PLANE_AXES[plane]
-        where = spec.where.get("motion")
-        offs = [letter for letter in "IJK" if letter in idx]
-        normal_offset = "IJK"[n]
-        if "R" in idx and offs:
-            raise BlockError("E-ARC-FORMAT", "arc with both R and I/J/K", idx["R"])
-        if normal_offset in idx:
-            raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
-        turns = 0
-        if "P" in idx:
-            p = vals[idx["P"]]
-            if p != round(p) or p < 1:
-                raise BlockError("E-VALUE", f"arc turns P{p:g} must be a whole number >= 1", idx["P"])
-            turns = int(p) - 1
-        ccw = st.motion == 30
-        if "R" in idx:
-            if AXES[a] not in idx and AXES[b] not in idx:
-                raise BlockError("E-ARC-FORMAT", f"radius-format arc needs {AXES[a]} or {AXES[b]}", idx["R"])
-            return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path,
-                            radius_mm=vals[idx["R"]] * st.unit, turns=turns, word=idx["R"], unit_mm=st.unit)
-        if not offs:
-            raise BlockError("E-ARC-FORMAT", "arc needs R or I/J/K", where)
-        unit = st.unit
-        ia, ib = "IJK"[a], "IJK"[b]
-        if st.arc_absolute:
-            for letter in (ia, ib):
-                if letter not in idx:
-                    raise BlockError("E-ARC-FORMAT", f"{letter} word missing in an absolute-centre (G90.1) arc",
-                                     where)
-            off = st.offset
-            center = (vals[idx[ia]] * unit + off[a], vals[idx[ib]] * unit + off[b])
-        else:
-            center = (st.pos[a] + (vals[idx[ia]] * unit if ia in idx else 0.0),
-                      st.pos[b] + (vals[idx[ib]] * unit if ib in idx else 0.0))
-        return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path, center_ab=center, turns=turns,
-                        word=idx[offs[0]], unit_mm=unit)
 
 
 def _end_functions(axis_parts: dict[int, int]):
@@ -469,9 +259,3 @@ def _first_slot(end_function) -> int:
 def _col(parts: list[str], p: int) -> int:
     """1-based column of the letter just before the slot number parts[p]."""
     return len("".join(parts[:p]))
-
-
-def _whole(value: float, letter: str, word: int) -> int:
-    if value != round(value) or value < 0:
-        raise BlockError("E-VALUE", f"{letter}{value:g} must be a whole number >= 0", word)
-    return int(value)

@@ -45,7 +45,7 @@ class ModalState:
     __slots__ = ("pos", "unit", "absolute", "arc_absolute", "plane", "motion", "feed_mm_s",
                  "path", "coord", "coord_offset", "g92", "tool_offset", "offset", "tool_selected",
                  "tool_in_spindle", "spindle_rpm", "spindle_dir", "mist", "flood", "nurbs",
-                 "params", "ended")
+                 "params", "ended", "program_number")
 
     def __init__(self, setup: Setup):
         self.pos = ZERO3
@@ -70,6 +70,7 @@ class ModalState:
         self.nurbs = None
         self.params: dict = {}
         self.ended = False
+        self.program_number: int | None = None
 
 
 class Staged:
