@@ -6,6 +6,9 @@ walks with d = 1 BLU), every axis whose difference to the point is >= 0.5 BLU ge
 unit step (+1 or -1), all stepping axes at once: one of the seven combinations x, y, z,
 xy, xz, yz, xyz. If a point is so far away that one step leaves an axis >= 0.5 BLU behind,
 further steps follow for the same point, so each axis ends within 0.5 BLU of every point.
+A difference of exactly -0.5 BLU does not step (the paper's rule reads >= 0.5 both ways):
+otherwise a point exactly halfway would make the axis chatter +1, -1, +1 ... for ever;
+so the lag stays in [-0.5, +0.5), rounding half up.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ def _walk(pts_blu, start, out):
                 s = 0
                 if diff >= 0.5:  # 000 §2.4 rule, dX = +1
                     s = 1
-                elif diff <= -0.5:  # dX = -1
+                elif diff < -0.5:  # dX = -1 (strict: see the module note on ties)
                     s = -1
                 if s != 0:
                     moved = True
@@ -160,20 +163,26 @@ def _path_deviation(path, curve, keys, order, lo, dims, cell, max_seg, segments)
             f = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
             if f > f_best:
                 t_best, f_best = t, f
-        lo_t, hi_t = t_best - 1.0 / n_sub, t_best + 1.0 / n_sub
+        lo_t, hi_t = max(t_best - 1.0 / n_sub, 0.0), min(t_best + 1.0 / n_sub, 1.0)
         g = 0.6180339887498949
-        for _ in range(30):
-            t1 = hi_t - g * (hi_t - lo_t)
-            t2 = lo_t + g * (hi_t - lo_t)
-            q[:] = a + t1 * (b - a)
-            f1 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
-            q[:] = a + t2 * (b - a)
-            f2 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
-            f_best = max(f_best, f1, f2)
+        t1 = hi_t - g * (hi_t - lo_t)
+        t2 = lo_t + g * (hi_t - lo_t)
+        q[:] = a + t1 * (b - a)
+        f1 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
+        q[:] = a + t2 * (b - a)
+        f2 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
+        for _ in range(20):
             if f1 > f2:
-                hi_t = t2
+                hi_t, t2, f2 = t2, t1, f1
+                t1 = hi_t - g * (hi_t - lo_t)
+                q[:] = a + t1 * (b - a)
+                f1 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
             else:
-                lo_t = t1
+                lo_t, t1, f1 = t1, t2, f2
+                t2 = lo_t + g * (hi_t - lo_t)
+                q[:] = a + t2 * (b - a)
+                f2 = _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg)
+            f_best = max(f_best, f1, f2)
         worst = max(worst, f_best)
     return worst
 

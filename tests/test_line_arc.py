@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ipr.entities import Arc, Line, Rapid
@@ -205,9 +205,18 @@ def test_step_wider_than_arc_reaches_end():
 
 
 def test_steep_helix_step_beyond_half_turn():
-    # R = 0.01, pitch 1 mm per turn: a 0.4 mm chord needs more than half a turn
+    # R = 0.01, 0.5 mm rise per half turn: a 0.7 mm chord needs about 4.4 rad of sweep.
+    # The angle is read from Z (monotone here), so jumps beyond pi are checked too.
     arc = Arc(1, (0.01, 0, 0), (0.01, 0, 3), (0, 0, 0), "XY", True, 50.0, turns=2)
-    arc_check(arc, np.full(40, 0.4))
+    k = 3 / (6 * np.pi)
+    pos, u, carry, n = run_all(ArcStepper(arc), np.full(40, 0.7))
+    th = pos[:, 2] / k
+    assert np.diff(np.r_[0, th])[:-1].min() > np.pi  # every full step sweeps over half a turn
+    np.testing.assert_allclose(pos[:, :2], 0.01 * np.c_[np.cos(th), np.sin(th)], atol=GEOM_TOL_MM)
+    ch = chords(np.array(arc.start), pos)
+    np.testing.assert_allclose(ch[:-1], 0.7, rtol=1e-12)
+    assert carry == pytest.approx(0.7 - ch[-1], abs=1e-12)
+    np.testing.assert_allclose(u, np.hypot(0.01, k) * th, rtol=1e-12)
 
 
 @settings(max_examples=40, deadline=None)
@@ -234,6 +243,8 @@ def test_random_arcs(plane, ccw, r, a0, sweep, turns, rise, step, lead_frac):
     e[n] += rise
     arc = Arc(1, tuple(s), tuple(e), tuple(c), plane, ccw, 50.0, turns=turns)
     length = np.hypot(r * abs(arc.sweep_rad), rise)
+    # steps wider than half a turn's chord have their own tests above
+    assume(step < 0.9 * np.hypot(2 * r, rise / abs(arc.sweep_rad) * np.pi))
     n_steps = int(length / step) + 5
     if n_steps > 20000:
         step = length / 19990
