@@ -14,26 +14,9 @@ from ipr.block import AXES, BlockSpec
 from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 from ipr.errors import BlockError
-from ipr.modal import INCH_MM, Setup, Staged
+from ipr.modal import INCH_MM, Setup, Staged, target
 
 _PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
-
-
-def target(st, spec: BlockSpec, vals, base, machine: bool = False):
-    """End point of the block's axis words from `base` (machine mm), as the distance mode says."""
-    end = list(base)
-    unit = st.unit
-    if machine:
-        for k, i in spec.axis_idx:
-            end[k] = vals[i] * unit
-    elif st.absolute:
-        off = st.offset
-        for k, i in spec.axis_idx:
-            end[k] = vals[i] * unit + off[k]
-    else:
-        for k, i in spec.axis_idx:
-            end[k] = base[k] + vals[i] * unit
-    return tuple(end)
 
 
 def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: list, line: int,
@@ -154,7 +137,7 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
     if g53 and not st.absolute:
         raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
     if motion in (52, 62):
-        return nurbs_blocks.start_group(st, spec, vals, line, target, notices)
+        return nurbs_blocks.start_group(st, spec, vals, line, notices)
     if motion == 53:
         raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
     end = target(st, spec, vals, st.pos, machine=g53)

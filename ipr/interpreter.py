@@ -13,7 +13,7 @@ from ipr import nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Line, Message, Rapid
 from ipr.errors import BlockError
-from ipr.execute import execute_block, target
+from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
 from ipr.modal import ModalState, Setup, Staged
 from ipr.syntax import LineSyntaxError, parse_line_columns, split_parts, template_for
@@ -209,7 +209,7 @@ class Interpreter:
         idx, g, m = spec.index, spec.g, spec.m
         if base.nurbs is not None and spec.index.keys() | g.keys() | m.keys():
             if g.get("motion", base.nurbs.kind) in (base.nurbs.kind, 53):
-                nurbs = nurbs_blocks.continue_group(st, spec, vals, target)
+                nurbs = nurbs_blocks.continue_group(st, spec, vals)
                 if nurbs is not None:
                     out.append(nurbs)
                 return self._commit(st, out, notices, assigns, line, text)

@@ -1,4 +1,5 @@
-"""The interpreter's modal state, the machine set-up it reads, and block staging.
+"""The interpreter's modal state, the machine set-up it reads, block staging, and the
+conversion of axis words to machine coordinates.
 
 A block is executed against a `Staged` view of the state: reads fall through to the
 state, writes are kept aside and applied by `commit()` only when the whole block has
@@ -99,3 +100,22 @@ class Staged:
             setattr(base, name, value)
         for action in self.after_commit:
             action()
+
+
+def target(st, spec, vals, base, machine: bool = False):
+    """End point (machine mm) of a block's axis words read from `base`: program units to mm,
+    plus the program -> machine offset in G90, relative to `base` in G91, as-is for G53.
+    `st` is a ModalState or Staged view, `spec` an ipr.block.BlockSpec, `vals` the values."""
+    end = list(base)
+    unit = st.unit
+    if machine:
+        for k, i in spec.axis_idx:
+            end[k] = vals[i] * unit
+    elif st.absolute:
+        off = st.offset
+        for k, i in spec.axis_idx:
+            end[k] = vals[i] * unit + off[k]
+    else:
+        for k, i in spec.axis_idx:
+            end[k] = base[k] + vals[i] * unit
+    return tuple(end)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from ipr.entities import PLANE_AXES
 from ipr.errors import BlockError
+from ipr.modal import target
 from ipr.nurbs_groups import (FANUC_DEFAULT_ORDER, G5_DEFAULT_ORDER, NurbsGroup, check_knot,
                               check_order, check_start, check_weight, finish)
 
@@ -18,14 +19,14 @@ _G52_WORDS = frozenset("XYZPN")
 AXIS_LETTERS = "XYZ"
 
 
-def _plane_words(st, spec) -> tuple[str, str, str]:
-    a, b, n = PLANE_AXES[st.plane]
+def _plane_words(plane: str) -> tuple[str, str, str]:
+    a, b, n = PLANE_AXES[plane]
     return AXIS_LETTERS[a], AXIS_LETTERS[b], AXIS_LETTERS[n]
 
 
-def _check_g52_axes(st, spec, group_line: int | None) -> bool:
+def _check_g52_axes(st, spec) -> bool:
     """G5.2 control points are planar: both in-plane axes, never the normal one."""
-    pa, pb, pn = _plane_words(st, spec)
+    pa, pb, pn = _plane_words(st.plane)
     if pn in spec.index:
         raise BlockError("E-NURBS-BLOCK", f"G5.2 control points lie in the {st.plane} plane: "
                          f"no {pn} word", spec.index[pn])
@@ -38,7 +39,7 @@ def _check_g52_axes(st, spec, group_line: int | None) -> bool:
     return has_a
 
 
-def start_group(st, spec, vals, line: int, target, notices: list) -> None:
+def start_group(st, spec, vals, line: int, notices: list) -> None:
     """A block whose motion is G6.2 or G5.2 while no group is open."""
     kind = spec.g.get("motion", st.motion)
     feed_mm_s = st.feed_mm_s
@@ -65,7 +66,7 @@ def start_group(st, spec, vals, line: int, target, notices: list) -> None:
     else:
         order = check_order(vals[idx["L"]], idx["L"]) if "L" in idx else G5_DEFAULT_ORDER
         group = NurbsGroup(52, line, order, feed_mm_s, st.path)
-        has_point = _check_g52_axes(st, spec, None)
+        has_point = _check_g52_axes(st, spec)
         p = vals[idx["P"]] if "P" in idx else None
         group.points.append(st.pos)
         group.weights.append(1.0 if has_point or p is None else check_weight(p, idx["P"]))
@@ -78,7 +79,7 @@ def start_group(st, spec, vals, line: int, target, notices: list) -> None:
     st.motion = kind
 
 
-def continue_group(st, spec, vals, target) -> object | None:
+def continue_group(st, spec, vals) -> object | None:
     """A block inside an open group; returns the Nurbs when the block closes the group."""
     group: NurbsGroup = st.nurbs
     idx = spec.index
@@ -97,7 +98,7 @@ def continue_group(st, spec, vals, target) -> object | None:
             if idx.keys() - {"N"}:
                 raise BlockError("E-NURBS-BLOCK", "G5.3 takes no words", min(idx.values()))
             return _close(st, group, spec.where["motion"])
-        if not _check_g52_axes(st, spec, group.line):
+        if not _check_g52_axes(st, spec):
             raise BlockError("E-WORD-MISSING", "G5.2 control point needs X and Y (the plane's axes)",
                              min(idx.values(), default=None))
         if "P" not in idx:
