@@ -11,9 +11,10 @@ blending). Limits: 100 mm/s and 1000 mm/s^2 per axis, 1 ms period, chord toleran
 The bound is written here, independently of ipo/: the exact programmed geometry sampled
 every <= 0.02 mm (NURBS through scipy's BSpline in homogeneous coordinates), a phase-plane
 forward/backward integration with the exact per-axis velocity and acceleration limits,
-the programmed feed and the chord-error formula, and every corner given the speed of the
-largest circular blend allowed there (deviation <= P, tangent points within half of
-each neighbouring move; none under G61 or P0), taken at constant speed.
+the programmed feed and the chord-error formula, along the programmed path with every
+corner rounded by the largest circular blend allowed there (deviation <= P, tangent
+points within half of each neighbouring move; a stop under G61 or P0). The bound is
+time-optimal for that path; it does not search other corner shapes.
 
 Then 002's Table 1 in simulation: a ball-end finishing raster over a curved surface,
 machined without and with the roughness limiter.
@@ -100,37 +101,65 @@ def _nurbs_samples(e: Nurbs):
 
 
 def exact_geometry(motions, blend_default_mm):
-    """Dense points, tangents, curvature vectors, feed caps and corner caps (v^2) of a program."""
-    pts, ts, kvs, feeds, corner = [], [], [], [], []
+    """Dense points, tangents, curvature vectors, feed caps and corner caps (v^2) of a
+    program, every corner replaced by the largest circular blend it allows (deviation from
+    the corner <= P, tangent points within half of each neighbouring move); a corner
+    under G61 or P0, or a reversal, is a stop."""
     ents = [m for m in motions if not (isinstance(m, (Line, Rapid)) and m.start == m.end)]
-    for i, e in enumerate(ents):
+    parts = []
+    for e in ents:
         p, t, kv = (_arc_samples(e) if isinstance(e, Arc) else _nurbs_samples(e) if isinstance(e, Nurbs)
                     else _line_samples(e))
-        pts.append(p), ts.append(t), kvs.append(kv)
-        feeds.append(np.full(len(p), 100.0 if isinstance(e, Rapid) else e.feed_mm_s))
-        corner.append(np.full(len(p), np.inf))
-    a_max = 1000.0
-    for i in range(len(ents) - 1):
-        t1, t2 = ts[i][-1], ts[i + 1][0]
-        cos_t = np.clip(t1 @ t2, -1, 1)
+        s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
+        parts.append([p, t, kv, s, 100.0 if isinstance(e, Rapid) else e.feed_mm_s])
+    n = len(parts)
+    cut_in, cut_out = np.zeros(n), np.zeros(n)
+    corners = {}
+    for i in range(n - 1):
+        t1, t2 = parts[i][1][-1], parts[i + 1][1][0]
+        cos_t = float(np.clip(t1 @ t2, -1, 1))
         theta = np.arccos(cos_t)
         if theta < 1e-6:
             continue
         path = ents[i].path
         tol = 0.0 if path.exact_stop else (blend_default_mm if path.blend_tol_mm is None else path.blend_tol_mm)
         if tol <= 0 or theta > np.pi - 1e-6:
-            x = 0.0
-        else:
-            half = 0.5 * theta
-            lens = [np.sum(np.linalg.norm(np.diff(pts[k], axis=0), axis=1)) for k in (i, i + 1)]
-            R = min(tol / (1 / np.cos(half) - 1), 0.5 * min(lens) / np.tan(half))
-            m = (t2 - cos_t * t1) / np.sin(theta)
-            phi = np.linspace(0, theta, 33)[:, None]
-            n = np.cos(phi) * m - np.sin(phi) * t1  # the blend's inward normal along the arc
-            x = R * a_max / np.abs(n).max()
-        corner[i][-1] = corner[i + 1][0] = x
+            corners[i] = None
+            continue
+        half = 0.5 * theta
+        reach = min(_reach(ents[i], parts[i][3][-1]), _reach(ents[i + 1], parts[i + 1][3][-1]))
+        R = min(tol / (1 / np.cos(half) - 1), reach / np.tan(half))
+        d = R * np.tan(half)
+        cut_out[i], cut_in[i + 1] = d, d
+        corners[i] = (R, theta, t1, t2, (parts[i][0][-1] + parts[i + 1][0][0]) / 2)
+    pts, ts, kvs, feeds, caps = [], [], [], [], []
+    programmed = np.concatenate([q[0] for q in parts])
+    for i, (p, t, kv, s, feed) in enumerate(parts):
+        keep = (s >= cut_in[i] - 1e-12) & (s <= s[-1] - cut_out[i] + 1e-12)
+        for arr, out in ((p, pts), (t, ts), (kv, kvs)):
+            out.append(arr[keep])
+        feeds.append(np.full(keep.sum(), feed))
+        caps.append(np.full(keep.sum(), np.inf))
+        if i in corners and corners[i] is None:
+            caps[-1][-1] = 0.0
+        elif i in corners:
+            R, theta, t1, t2, v = corners[i]
+            m = (t2 - np.cos(theta) * t1) / np.sin(theta)
+            c = v - t1 * R * np.tan(0.5 * theta) + R * m
+            phi = np.linspace(0, theta, max(3, int(np.ceil(R * theta / DS_MM)) + 1))[:, None]
+            pts.append(c - R * np.cos(phi) * m + R * np.sin(phi) * t1)
+            ts.append(np.sin(phi) * m + np.cos(phi) * t1)
+            kvs.append((np.cos(phi) * m - np.sin(phi) * t1) / R)
+            feeds.append(np.full(len(phi), feed))
+            caps.append(np.full(len(phi), np.inf))
     return (np.concatenate(pts), np.concatenate(ts), np.concatenate(kvs), np.concatenate(feeds),
-            np.concatenate(corner))
+            np.concatenate(caps), programmed)
+
+
+def _reach(e, length):
+    """How far from a corner a blend may start: half the move, and on an arc no more than a
+    tenth of its radius (so that the blend follows the arc, not its tangent)."""
+    return 0.5 * length if not isinstance(e, Arc) else min(0.5 * length, 0.1 * e.radius_mm)
 
 
 @njit(cache=True)
@@ -197,7 +226,7 @@ def _topp(s, t, kv, cap, a):
 
 
 def bound_time(motions, cfg) -> tuple[float, np.ndarray]:
-    p, t, kv, feed, corner = exact_geometry(motions, cfg.g64_blend_tol_mm)
+    p, t, kv, feed, corner, programmed = exact_geometry(motions, cfg.g64_blend_tol_mm)
     s = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
     a = cfg.axes[0].max_accel_mm_s2
     kappa = np.linalg.norm(kv, axis=1)
@@ -206,7 +235,7 @@ def bound_time(motions, cfg) -> tuple[float, np.ndarray]:
         rho = 1 / kappa
         chord = np.where(kappa > 1e-9, (2 / T) ** 2 * (2 * rho * delta - delta**2), np.inf)
     cap = np.minimum.reduce([_mvc(t, kv, a, cfg.axes[0].max_velocity_mm_s), feed**2, corner, chord])
-    return _topp(s, t, kv, cap, a), p
+    return _topp(s, t, kv, cap, a), programmed
 
 
 # ---------------------------------------------------------------- the planner under test

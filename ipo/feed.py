@@ -36,7 +36,7 @@ from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Line, Rapid, Coolant, Dw
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
 # between samples and is checked at the samples only.
-ACCEL_USE = 0.97
+ACCEL_USE = 0.985
 VELOCITY_USE = 0.995
 _BUILD_CHUNK = 2048  # motions turned into pieces per call
 _START_TOL_MM = 1e-6

@@ -181,17 +181,21 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     theta = np.arccos(cos_t)
     blend = both & (theta > _COLLINEAR_RAD) & (theta < _REVERSAL_RAD)
     half = np.where(blend, 0.5 * theta, 0.25)
-    avail = 0.5 * np.minimum(length[:-1], length[1:])
+    # a blend may take half of each move, and on an arc no more than a tenth of its radius
+    reach = np.where(is_arc, np.minimum(0.5 * length, 0.1 * arcs.radius), 0.5 * length)
+    avail = np.minimum(reach[:-1], reach[1:])
     r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
     d = radius * np.tan(half)
     # a corner that involves an arc gets a cubic blend from the point d before it to the
-    # point d after it, tangent to both moves; its deviation from the corner is about
-    # (d / 2) sin(theta / 2), so d = 2 P / sin(theta / 2) keeps it within P
+    # point d after it, tangent to both moves, with the handles of a circular arc of
+    # radius d / tan(theta / 2): sized like the circular blend between lines
     movable = line_like | is_arc
     curve = (movable[:-1] & movable[1:] & ~both & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
              & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
-    d = np.where(curve, np.minimum(avail, 2.0 * tol[:-1] / np.sin(np.maximum(0.5 * theta, 1e-12))), d)
+    half_c = np.where(curve, 0.5 * theta, 0.25)
+    r_c = np.minimum(tol[:-1] / (1.0 / np.cos(half_c) - 1.0), avail / np.tan(half_c))
+    d = np.where(curve, r_c * np.tan(half_c), d)
     trim_out[:-1] = d
     trim_in[1:] += d
     emit = n if final else n - 1
@@ -222,7 +226,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
                                                                                     j + 1, d[j])
         ta = _tangent(arcs, unit, is_arc, j, length[j] - d[j])
         tb = _tangent(arcs, unit, is_arc, j + 1, d[j])
-        h = 2.0 / 3.0 * d[j]
+        h = 4.0 / 3.0 * np.tan(0.25 * theta[j]) * r_c[j]  # cubic approximation of a circular arc
         cubic = Nurbs(int(lines[j]), 3, np.array([0, 0, 0, 0, 1, 1, 1, 1.0]), np.ones(4),
                       np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), float(feed[j]))
         idx = add_blend(cubic)
