@@ -36,6 +36,10 @@ class CanonMove(NamedTuple):
     center_mm: tuple[float, float, float] | None = None
     plane: str | None = None
     rotation: int | None = None
+    # path control in force: G61 (exact path) or G64 with its P blend and naive-CAM (Q) tolerances
+    exact_stop: bool = False
+    blend_tol_mm: float = 0.0
+    merge_tol_mm: float = 0.0
 
 
 def require_rs274() -> str:
@@ -65,6 +69,7 @@ def canon_moves(output: str) -> list[CanonMove]:
     tool_z_mm = 0.0
     plane = "XY"
     feed_mm_s = 0.0
+    path = (False, 0.0, 0.0)
     moves: list[CanonMove] = []
     for text in output.splitlines():
         # "   12 N..... NAME(args)": plain string splitting, 169k lines must read in well under a second
@@ -83,6 +88,11 @@ def canon_moves(output: str) -> list[CanonMove]:
             tool_z_mm = _numbers(args)[2] * mm_per_unit
         elif name == "SELECT_PLANE":
             plane = _PLANES[args.strip()]
+        elif name == "SET_MOTION_CONTROL_MODE":
+            mode, _, tol = args.partition(",")
+            path = (mode.strip() != "CANON_CONTINUOUS", float(tol or 0.0) * mm_per_unit, path[2])
+        elif name == "SET_NAIVECAM_TOLERANCE":
+            path = (path[0], path[1], float(args) * mm_per_unit)
         elif name == "SET_FEED_RATE":
             feed_mm_s = _numbers(args)[0] * mm_per_unit / 60.0
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
@@ -99,10 +109,11 @@ def canon_moves(output: str) -> list[CanonMove]:
                 # the centre's normal-axis coordinate is left as NaN: vcnc puts it at the start's
                 center_mm = tuple(center[i] * mm_per_unit + offset[i] if i != n else float("nan")
                                   for i in range(3))
-                moves.append(CanonMove("arc", end_mm, feed_mm_s, tol, center_mm, plane, int(v[4])))
+                moves.append(CanonMove("arc", end_mm, feed_mm_s, tol, center_mm, plane, int(v[4]), *path))
             else:
                 end_mm = (v[0] * mm_per_unit + offset[0], v[1] * mm_per_unit + offset[1],
                           v[2] * mm_per_unit + offset[2])
                 kind = "rapid" if name == "STRAIGHT_TRAVERSE" else "line"
-                moves.append(CanonMove(kind, end_mm, None if kind == "rapid" else feed_mm_s, tol))
+                moves.append(CanonMove(kind, end_mm, None if kind == "rapid" else feed_mm_s, tol, None, None, None,
+                                       *path))
     return moves

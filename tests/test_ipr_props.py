@@ -20,7 +20,7 @@ from ipr.entities import MOTION_TYPES, Dwell, GCodeError
 from ipr.syntax import LineSyntaxError
 
 # VCNC_FUZZ_EXAMPLES=5000 for a deep run; the default keeps the suite fast.
-SETTINGS = settings(max_examples=int(os.environ.get("VCNC_FUZZ_EXAMPLES", "150")), deadline=None,
+SETTINGS = settings(max_examples=int(os.environ.get("VCNC_FUZZ_EXAMPLES", "100")), deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
 # ---- valid lines ---------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Differential test: vcnc's interpreter against LinuxCNC's `rs274 -g` on the same programs.
 
 Every STRAIGHT_TRAVERSE / STRAIGHT_FEED / ARC_FEED rs274 prints must match vcnc's
-Rapid / Line / Arc (end point, arc centre, plane, direction, turns, feed) to rs274's
+Rapid / Line / Arc (end point, arc centre, plane, direction, turns, feed, G61/G64 P Q) to rs274's
 printed precision (4 decimals, in the program's units). rs274's output is read and
 converted to machine mm by tests/rs274.py.
 """
@@ -11,6 +11,7 @@ import math
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import corpus_files
 from rs274 import CanonMove, INCH_MM, canon_moves, require_rs274, run_rs274
@@ -43,6 +44,11 @@ def mismatches(moves: list[CanonMove], entities: list) -> list[str]:
             feed_tol = move.tol_mm / 60.0 + 1e-9 * move.feed_mm_s
             if abs(ent.feed_mm_s - move.feed_mm_s) > feed_tol:
                 problems.append(f"move {i}: feed {ent.feed_mm_s} mm/s != {move.feed_mm_s}: {_describe(move, ent)}")
+        pc = ent.path
+        blend_off = abs((pc.blend_tol_mm or 0.0) - move.blend_tol_mm) > tol / 100  # P prints 6 decimals
+        merge_off = pc.merge_tol_mm is not None and abs(pc.merge_tol_mm - move.merge_tol_mm) > tol
+        if pc.exact_stop != move.exact_stop or blend_off or merge_off:
+            problems.append(f"move {i}: path control {pc} differs: {_describe(move, ent)}")
         if move.kind == "arc":
             a, b, _ = PLANE_AXES[move.plane]
             if ent.plane != move.plane:
@@ -142,6 +148,13 @@ G20 G1 X1 F10
 G21 G1 X5 F300
 M2
 """),
+    "path_control": (4, """G21
+G61 G1 X1 F100
+G64 P0.05 Q0.02 G1 X2
+G64 G0 X4
+G20 G64 P0.001 G1 X1
+M2
+"""),
     "expressions": (12, """G21 G90
 #1=2
 #<scale>=0.5
@@ -229,3 +242,89 @@ def test_reader_converts_inches_and_offsets(tmp_path: Path) -> None:
     assert arc.end_mm == pytest.approx((76.2, 50.8, 0.0))
     assert arc.center_mm[0] == pytest.approx(63.5) and arc.center_mm[2] == pytest.approx(0.0)
     assert math.isnan(arc.center_mm[1])
+
+
+_AXIS_LETTERS = "XYZ"
+_CENTRE_LETTERS = "IJK"
+
+
+def random_program(seed: int, n_blocks: int) -> tuple[str, int]:
+    """A seeded random G0–G3 program (planes, G90/G91, IJK and R arcs, helices, turns, G92, F),
+    written with 4 decimals; returns the text and the number of moves it makes."""
+    rng = np.random.default_rng(seed)
+    pos = np.zeros(3)  # in the current work coordinates
+    offset_now = np.zeros(3)  # G92 offset: machine = work + offset_now
+    lines, moves, plane, incremental = ["G21 G90 G17 F200"], 0, "XY", False
+
+    def coords(target: np.ndarray, axes) -> str:
+        values = target - pos if incremental else target
+        return " ".join(f"{_AXIS_LETTERS[k]}{values[k]:.4f}" for k in axes)
+
+    for _ in range(n_blocks):
+        kind = rng.choice(["straight", "straight", "arc", "arc", "arc", "plane", "distance", "g92", "feed"])
+        if kind == "plane":
+            plane = str(rng.choice(["XY", "ZX", "YZ"]))
+            lines.append({"XY": "G17", "ZX": "G18", "YZ": "G19"}[plane])
+        elif kind == "distance":
+            incremental = not incremental
+            lines.append("G91" if incremental else "G90")
+        elif kind == "g92":
+            if rng.random() < 0.3:
+                lines.append("G92.1")  # work coordinates become machine ones again: re-read the position
+                pos = pos + offset_now
+                offset_now = np.zeros(3)
+            else:
+                new = np.round(rng.uniform(-20, 20, 3), 4)
+                lines.append("G92 " + " ".join(f"{a}{v:.4f}" for a, v in zip(_AXIS_LETTERS, new)))
+                offset_now = offset_now + pos - new
+                pos = new
+        elif kind == "feed":
+            lines.append(f"F{rng.uniform(10, 3000):.1f}")
+        elif kind == "straight":
+            axes = sorted(rng.choice(3, size=rng.integers(1, 4), replace=False))
+            target = pos.copy()
+            target[axes] = np.round(pos[axes] + rng.uniform(-30, 30, len(axes)), 4)
+            lines.append(f"{rng.choice(['G0', 'G1'])} {coords(target, axes)}")
+            pos, moves = target, moves + 1
+        else:
+            a, b, n = PLANE_AXES[plane]
+            radius = rng.uniform(0.5, 25)
+            phi0, sweep = rng.uniform(0, 2 * np.pi), rng.uniform(0.2, 2 * np.pi - 0.2)
+            centre = pos.copy()
+            centre[a] -= radius * np.cos(phi0)
+            centre[b] -= radius * np.sin(phi0)
+            full = rng.random() < 0.1
+            target = pos.copy()
+            if not full:
+                target[a] = round(centre[a] + radius * np.cos(phi0 + sweep), 4)
+                target[b] = round(centre[b] + radius * np.sin(phi0 + sweep), 4)
+            if rng.random() < 0.3:
+                target[n] = round(pos[n] + rng.uniform(-5, 5), 4)  # helix
+            code = rng.choice(["G2", "G3"])
+            words = f"{code} {coords(target, (a, b, n))}"
+            chord_over_diameter = np.hypot(target[a] - pos[a], target[b] - pos[b]) / (2 * radius)
+            if not full and 0.05 < chord_over_diameter < 0.9 and rng.random() < 0.4:
+                # R format: the sign picks the longer arc; rs274 computes the centre itself
+                longer = (sweep > np.pi) == (code == "G3")
+                words += f" R{-radius if longer else radius:.4f}"
+            else:
+                off = centre - pos
+                words += f" {_CENTRE_LETTERS[a]}{off[a]:.4f} {_CENTRE_LETTERS[b]}{off[b]:.4f}"
+                if rng.random() < 0.15:
+                    words += f" P{rng.integers(2, 4)}"
+            lines.append(words)
+            pos, moves = target, moves + 1
+    lines.append("M2")
+    return "\n".join(lines) + "\n", moves
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_programs_match_rs274(seed: int, tmp_path: Path) -> None:
+    require_rs274()
+    text, n_moves = random_program(seed, 400)
+    src = tmp_path / f"random{seed}.ngc"
+    src.write_text(text)
+    moves = canon_moves(run_rs274(src))
+    assert len(moves) == n_moves
+    problems = mismatches(moves, ipr.parse_file(src).entities)
+    assert not problems, "\n".join(problems)
