@@ -17,7 +17,7 @@ from conftest import corpus_files
 from rs274 import CanonMove, INCH_MM, canon_moves, require_rs274, run_rs274
 
 import ipr
-from ipr.entities import PLANE_AXES, Arc, Line, Rapid
+from ipr.entities import PLANE_AXES, Arc, GCodeError, Line, Rapid
 
 _KIND = {Rapid: "rapid", Line: "line", Arc: "arc"}
 _FLOAT_SLACK = 1e-9  # mm: float noise on top of the printed-precision tolerance
@@ -327,4 +327,49 @@ def test_random_programs_match_rs274(seed: int, tmp_path: Path) -> None:
     moves = canon_moves(run_rs274(src))
     assert len(moves) == n_moves
     problems = mismatches(moves, ipr.parse_file(src).entities)
+    assert not problems, "\n".join(problems)
+
+
+# One block after "G21 G90 G17": rs274 and vcnc must both accept it or both reject it.
+AGREEMENT_BLOCKS = [
+    "G2 X1 Y1", "G1 X1", "G1 X1 F0", "G0 X1 G1 Y1", "G1 X1 X2 F100", "G2 X10 Y0 R3 F100", "G2 X0 Y0 R5 F100",
+    "G2 X5 Y0 I1 J0 F100", "G4", "G4 P-1", "M3 S-100", "G1 X1 F-10", "N10 N20 G0 X1", "G17 G18", "M3 M4 S100",
+    "G2 X0 Y0 I1 J0 P0 F100", "G2 X0 Y0 I1 J0 P1.5 F100", "X1", "G91 G53 G0 X1", "G0 X1 R2", "G1 X1 F100 I2",
+    "G0 X1 P2", "G80 X1", "G1 X1 E5 F100", "G2 X2 Y0 I1 J0 K1 F100", "G17 G2 X2 Y0 I1 F100",
+    "G18 G2 X2 Z0 I1 J1 F100", "G2 X2 Y0 R1 I1 F100", "T1 M6", "T-1 M6", "G43 H-1", "G64 Q0.1", "M3", "S100 M3",
+    "G92", "G92.1 X1", "G53 G1 X1 F100", "G0 X[1/0]", "#1=[SQRT[-1]]", "G0 X#<nope>", "#5400=1", "#0=1",
+    "G0 X[ACOS[2]]", "G0 X[LN[0]]", "G0 X1.2.3", "M2 M30", "M0 M1", "G4 P1 G0 X1", "G21 G20", "G5.2 X1 Y1",
+    "G90.1 G2 X2 Y0 I1 J0 F100", "G0X1Y2Z3", "g0 x1 (msg, hi) y2", "G0 X1 ;comment", "G0 X1 (a) (b)",
+    "G0 X1 (unclosed", "G0 X1 )", "G01.0 X1", "G1.0 X1 F1", "G0 X+-1", "G0 X--1", "G0 X1.", "G0 X.", "G0 X",
+    "G1 F100 X1 N5",  # N is only allowed at the start of a block
+    "%",  # % only starts (first line) or ends a program; here it is neither
+]
+# Where vcnc rejects on purpose what rs274 accepts (the spec's dialect is narrower than LinuxCNC's).
+VCNC_STRICTER = ["G0 X1 Y2 Z3 A1", "M6", "G64 P-1"]
+
+
+def _accepts(src: Path) -> tuple[bool, str]:
+    try:
+        ipr.parse_file(src)
+    except GCodeError as err:
+        return False, str(err.diagnostics[0])
+    return True, ""
+
+
+def test_accepts_and_rejects_like_rs274(tmp_path: Path) -> None:
+    require_rs274()
+    problems = []
+    for i, block in enumerate(AGREEMENT_BLOCKS + VCNC_STRICTER):
+        src = tmp_path / f"block{i}.ngc"
+        src.write_text(f"G21 G90 G17\n{block}\nM2\n")
+        try:
+            run_rs274(src)
+            rs274_ok, why = True, ""
+        except RuntimeError as err:
+            rs274_ok, why = False, str(err).splitlines()[-2:]
+        vcnc_ok, vcnc_why = _accepts(src)
+        expected = rs274_ok and block not in VCNC_STRICTER
+        if vcnc_ok != expected:
+            problems.append(f"{block!r}: rs274 {'accepts' if rs274_ok else f'rejects {why}'}, "
+                            f"vcnc {'accepts' if vcnc_ok else 'rejects: ' + vcnc_why}")
     assert not problems, "\n".join(problems)
