@@ -15,12 +15,13 @@ from typing import Callable
 
 import numpy as np
 
-from ipo.rational_fit import RationalFit, evaluate, fit_rational, golden_section
+from ipo.rational_fit import RationalFit, SpanPolynomials, fit_rational, golden_section
 
 SAMPLE_SPACING_MM = 0.02  # densest spacing of check points along a segment
 MIN_SAMPLES, MAX_SAMPLES = 4, 64  # per data interval
 WINDOW = 3  # segments either side of a curve sample's own interval that it is checked against
 MAX_POINTS_PER_FIT = 400  # longer polylines are cut into equal parts first
+MAX_CTRL = 48  # a piece needing more control points is split instead
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,7 +33,7 @@ class Piece:
     fit: RationalFit | None
     deviation_mm: float  # checked max deviation of the fit (0 for G01)
     reason: str = ""  # why a piece stayed G01
-    kept: np.ndarray | None = None  # vertex indices the fit was made on (repeated vertices dropped)
+    data: np.ndarray | None = None  # the points the fit was made on: the same polyline, densified
 
 
 def _point_segment_dist(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -59,11 +60,13 @@ def _interval_samples(lo: np.ndarray, hi: np.ndarray, counts: np.ndarray) -> tup
 def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     """Upper bound of the two-way distance between the curve and the polyline q."""
     u = fit.params
+    evaluate = SpanPolynomials(fit.knots, fit.degree).curve(fit.points * fit.weights[:, None], fit.weights)
+
     counts = _samples_per_interval(q)
     n_seg = len(q) - 1
     # curve -> polyline: curve samples on each data interval against nearby segments
     uu, owner = _interval_samples(u[:-1], u[1:], counts)
-    pts = evaluate(fit, uu)
+    pts = evaluate(uu)
     to_poly = np.full(len(uu), np.inf)
     for off in range(-WINDOW, WINDOW + 1):
         seg = np.clip(owner + off, 0, n_seg - 1)
@@ -75,9 +78,9 @@ def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     hi = u[np.clip(owner + 2, 0, n_seg)]
 
     def dist2(x):
-        return np.sum((seg_pts - evaluate(fit, x)) ** 2, axis=1)
+        return np.sum((seg_pts - evaluate(x)) ** 2, axis=1)
 
-    foot = golden_section(dist2, lo, hi)
+    foot = golden_section(dist2, lo, hi, iterations=28)
     to_curve = np.sqrt(np.minimum(dist2(foot), np.minimum(dist2(lo), dist2(hi))))
     return float(max(to_poly.max(), to_curve.max()))
 
@@ -91,7 +94,7 @@ def nurbs_blocks(n_ctrl: int, degree: int) -> int:
 class FitSettings:
     tol_mm: float
     degree: int = 3
-    max_iter: int = 25
+    max_iter: int = 15
     rel_delta: float = 1e-3
     rational: bool = True
 
@@ -109,20 +112,25 @@ def _try(q: np.ndarray, m: int, s: FitSettings, warm: RationalFit | None) -> tup
 
 
 def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> RationalFit | None:
-    """Smallest control-point count <= m_max whose fit is within tolerance (doubling, then bisection)."""
+    """Smallest control-point count <= m_max whose fit is within tolerance.
+
+    m_max is tried first (a piece that fails there is not worth fitting, and most
+    failures end after a few iterations); then doubling from degree + 1 up to the
+    first success, and bisection below it, each fit starting from the parameters
+    of the best fit so far."""
     lo = s.degree + 1
     if m_max < lo:
         return None
-    bad, m, best, warm = lo - 1, lo, None, None
-    while best is None:
-        warm, ok = _try(q, m, s, warm)
+    best, ok = _try(q, m_max, s, None)
+    if not ok:
+        return None
+    bad, hi, m = lo - 1, m_max, lo
+    while m < hi:
+        fit, ok = _try(q, m, s, best)
         if ok:
-            best = warm
-        elif m >= m_max:
-            return None
-        else:
-            bad, m = m, min(2 * m, m_max)
-    hi = m
+            hi, best = m, fit
+            break
+        bad, m = m, 2 * m
     while hi - bad > 1:
         mid = (hi + bad) // 2
         fit, ok = _try(q, mid, s, best)
@@ -141,26 +149,64 @@ def _dedupe(q: np.ndarray) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+def densify(q: np.ndarray) -> np.ndarray:
+    """The same polyline with points added on its longer segments.
+
+    001 uses uniform knots and chord-length parameters: where a long segment holds
+    no data point, knot spans go empty and the least squares are ill-posed. Points
+    on the segments are data of the same path (a fit must follow the segments too).
+    The spacing is the median segment, but no finer than needed for MAX_CTRL spans."""
+    seg = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    spacing = max(float(np.median(seg)), float(seg.sum()) / (3 * MAX_CTRL), 1e-12)
+    parts = np.maximum(np.ceil(seg / spacing).astype(int), 1)
+    t = np.concatenate([np.arange(k) / k for k in parts])
+    owner = np.repeat(np.arange(len(seg)), parts)
+    return np.vstack([q[owner] + t[:, None] * (q[owner + 1] - q[owner]), q[-1:]])
+
+
+def _turning(q: np.ndarray) -> np.ndarray:
+    """Turning angle (rad) at each interior vertex."""
+    d = np.diff(q, axis=0)
+    n = np.linalg.norm(d, axis=1)
+    n = np.where(n > 0, n, 1.0)
+    c = np.einsum("ij,ij->i", d[:-1], d[1:]) / (n[:-1] * n[1:])
+    return np.arccos(np.clip(c, -1.0, 1.0))
+
+
+def _split_vertex(q: np.ndarray, first: int, last: int, min_moves: int) -> int:
+    """Where to cut a piece in two: its sharpest vertex, unless the turning is nearly even
+    (then the middle); both parts keep at least min_moves moves."""
+    lo, hi = first + min_moves, last - min_moves
+    mid = (first + last) // 2
+    ang = _turning(q[first:last + 1])[lo - first - 1:hi - first]
+    if len(ang) == 0:
+        return mid
+    k = int(np.argmax(ang))
+    return lo + k if ang[k] > 2.0 * np.median(ang) + 1e-3 else mid
+
+
 def _fit_range(q: np.ndarray, first: int, last: int, s: FitSettings,
                blocks: Callable[[int], int]) -> list[Piece]:
+    """Fit vertices first..last as one piece or, where that needs fewer blocks, as two."""
     sub = q[first:last + 1]
-    idx = _dedupe(sub)
     g01_blocks = last - first
-    m_max = len(idx)
+    m_max = min(len(sub), MAX_CTRL)
     while m_max > 0 and blocks(m_max) >= g01_blocks:
         m_max -= 1
-    fit = fewest_ctrl(sub[idx], s, m_max)
+    data = densify(sub[_dedupe(sub)])
+    fit = fewest_ctrl(data, s, m_max)
     if fit is None:
         whole = [Piece(first, last, None, 0.0, "no fit within tolerance saves blocks")]
         whole_blocks = g01_blocks
     else:
-        whole = [Piece(first, last, fit, max_deviation(fit, sub[idx]), kept=first + idx)]
+        whole = [Piece(first, last, fit, max_deviation(fit, data), data=data)]
         whole_blocks = blocks(len(fit.points))
-    n = last - first
-    if n < 4 * (s.degree + 2) or whole_blocks <= 2 * blocks(s.degree + 1):
+    min_moves = s.degree + 2
+    worth_splitting = fit is None or len(fit.points) > MAX_CTRL // 2
+    if g01_blocks < 2 * min_moves or not worth_splitting:
         return whole
-    mid = first + n // 2
-    halves = _fit_range(q, first, mid, s, blocks) + _fit_range(q, mid, last, s, blocks)
+    cut = _split_vertex(q, first, last, min_moves)
+    halves = _fit_range(q, first, cut, s, blocks) + _fit_range(q, cut, last, s, blocks)
     split_blocks = sum(blocks(len(p.fit.points)) if p.fit else p.last - p.first for p in halves)
     return halves if split_blocks < whole_blocks else whole
 

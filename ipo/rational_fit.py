@@ -77,7 +77,57 @@ def eval_homogeneous(knots: np.ndarray, degree: int, wp: np.ndarray, w: np.ndarr
     return num / den[:, None]
 
 
-def golden_section(dist2, lo: np.ndarray, hi: np.ndarray, iterations: int = 28) -> np.ndarray:
+class SpanPolynomials:
+    """The basis functions as one polynomial per knot span, computed from ipo.nurbs.basis.
+
+    The golden-section searches evaluate the curve thousands of times at moving
+    parameters; per span polynomials make each evaluation a few array operations."""
+
+    def __init__(self, knots: np.ndarray, degree: int):
+        p = degree
+        spans = np.arange(p, len(knots) - p - 1)
+        spans = spans[knots[spans + 1] > knots[spans]]
+        width = knots[spans + 1] - knots[spans]
+        nodes = (np.arange(p + 1) + 0.5) / (p + 1)
+        x = width[:, None] * nodes[None, :]  # (S, p+1) local abscissae
+        vals = basis(knots, p, (knots[spans][:, None] + x).ravel(), np.repeat(spans, p + 1))
+        vander = x[:, :, None] ** np.arange(p + 1)[None, None, :]
+        self.coef = np.linalg.solve(vander, vals.reshape(len(spans), p + 1, p + 1))  # (S, power, function)
+        self.starts = knots[spans]
+        self.spans = spans
+        self.degree = p
+
+    def __call__(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Span index and the p+1 non-zero basis values at each u."""
+        k = np.clip(np.searchsorted(self.starts, u, side="right") - 1, 0, len(self.starts) - 1)
+        x = u - self.starts[k]
+        c = self.coef[k]
+        vals = c[:, self.degree]
+        for power in range(self.degree - 1, -1, -1):
+            vals = vals * x[:, None] + c[:, power]
+        return self.spans[k], vals
+
+    def curve(self, wp: np.ndarray, w: np.ndarray):
+        """u -> C(u) for fixed homogeneous control points (001 eq. 10): the numerator and
+        denominator are folded into one polynomial per span up front."""
+        p = self.degree
+        idx = self.spans[:, None] - p + np.arange(p + 1)[None, :]
+        homog = np.concatenate([wp, w[:, None]], axis=1)[idx]  # (S, function, dim+1)
+        poly = np.einsum("skf,sfd->skd", self.coef, homog)  # (S, power, dim+1)
+
+        def at(u: np.ndarray) -> np.ndarray:
+            k = np.clip(np.searchsorted(self.starts, u, side="right") - 1, 0, len(self.starts) - 1)
+            x = (u - self.starts[k])[:, None]
+            c = poly[k]
+            acc = c[:, p]
+            for power in range(p - 1, -1, -1):
+                acc = acc * x + c[:, power]
+            return acc[:, :-1] / acc[:, -1:]
+
+        return at
+
+
+def golden_section(dist2, lo: np.ndarray, hi: np.ndarray, iterations: int = 20) -> np.ndarray:
     """Minimise dist2(u) (vectorised, one unknown per entry) on [lo, hi] by golden section."""  # 001 eq. 11
     a, b = lo.copy(), hi.copy()
     c = b - GOLDEN * (b - a)
@@ -142,8 +192,9 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     Stops when f_{l-1} - f_l < rel_delta * f_{l-1} (or f_l is ~0), or after max_iter
     iterations; returns the best iterate. rational=False skips the weight step
     (a non-rational least-squares fit with the same parameter correction).
-    give_up_above: stop early once f_l, falling at its current rate for the
-    iterations left, cannot get below this value (the caller's tolerance)."""
+    give_up_above: stop early once the largest data-point error, falling at its
+    current rate for the iterations left, cannot get below this value (the
+    caller's tolerance: the fit is then of no use to it)."""
     q = np.asarray(q, dtype=float)
     r = len(q)
     if r < n_ctrl:
@@ -154,17 +205,14 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     w = np.ones(n_ctrl)
     scale = max(float(np.ptp(q, axis=0).max()), 1e-300)
     history: list[float] = []
+    worst_prev = np.inf
     best = None
     converged = False
     for _ in range(max_iter):
         n_mat = basis_matrix(knots, degree, u, n_ctrl)
         wp = _solve_wp(n_mat, q, w)
         if rational:
-            w_new = _positive_step(w, _solve_weights(n_mat, q, wp, w))
-            wp[0], wp[-1] = w_new[0] * q[0], w_new[-1] * q[-1]
-            w = w_new
-            s = w.max()
-            w, wp = w / s, wp / s
+            wp, w = _weight_step(n_mat, q, wp, w)
         u = _correct_params(knots, degree, wp, w, q, u)
         err = q - eval_homogeneous(knots, degree, wp, w, u)
         f_l = float(np.sqrt(np.sum(err**2) / max(r - 1, 1)))  # 001 App. I step 5
@@ -174,11 +222,13 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
             history.append(f_l)
             converged = True
             break
-        if give_up_above is not None and history:
+        worst = float(np.sqrt(np.max(np.sum(err**2, axis=1))))
+        if give_up_above is not None:
             left = max_iter - len(history) - 1
-            if f_l - left * max(history[-1] - f_l, 0.0) > give_up_above:
+            if worst - left * max(worst_prev - worst, 0.0) > give_up_above:
                 history.append(f_l)
                 break
+        worst_prev = worst
         history.append(f_l)
     _, wp, w, u = best
     points = wp / w[:, None]
@@ -186,14 +236,36 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     return RationalFit(degree, knots, w, points, u, np.array(history), converged)
 
 
+def _residual2(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray) -> float:
+    return float(np.sum((q - (n_mat @ wp) / (n_mat @ w)[:, None]) ** 2))
+
+
+def _weight_step(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray):
+    """001 eq. 9 for the weights, then eq. 7 again for WP under them, taken only as far as it
+    lowers the data error at the current parameters (halving the step up to 4 times).
+
+    Eq. 9 minimises the homogeneous residual, not the distance; unguarded, its steps
+    can make the fit worse than the non-rational one. Returns (WP, w), largest w = 1."""
+    target = _positive_step(w, _solve_weights(n_mat, q, wp, w))
+    now = _residual2(n_mat, q, wp, w)
+    for t in (1.0, 0.5, 0.25, 0.125, 0.0625):
+        w_try = w + t * (target - w)
+        wp_try = _solve_wp(n_mat, q, w_try)
+        if _residual2(n_mat, q, wp_try, w_try) < now:
+            s = w_try.max()
+            return wp_try / s, w_try / s
+    return wp, w
+
+
 def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:
     """Each interior u_j by golden section in [u_{j-1}, u_{j+1}]; ends stay pinned."""  # 001 eq. 10-11
     if len(u) <= 2:
         return u
     inner = q[1:-1]
+    curve = SpanPolynomials(knots, degree).curve(wp, w)
 
     def dist2(uu):
-        return np.sum((inner - eval_homogeneous(knots, degree, wp, w, uu)) ** 2, axis=1)
+        return np.sum((inner - curve(uu)) ** 2, axis=1)
 
     new = u.copy()
     new[1:-1] = golden_section(dist2, u[:-2], u[2:])

@@ -247,7 +247,7 @@ def _convert_run(run: list[Line], lines: list[str], frame: Frame, tol_mm: float,
 
 def _group_for(piece: Piece, q, run, frame, digits, tol_mm, report) -> list[str] | None:
     text, written = group_text(piece.fit, run[piece.first].feed_mm_s, frame, digits)
-    dev = max_deviation(written, q[piece.kept])
+    dev = max_deviation(written, piece.data)
     if dev > tol_mm:
         report.kept_g01.append((run[piece.first].line, f"rounded curve {dev * 1e3:.3f} um off"))
         return None
