@@ -9,7 +9,9 @@ of NURBS programs turned into G1 segments by vcnc's IPO.
    left out); the double's own peak RX fill is printed next to it.
 2. For each NURBS program: G1 segments sent against the NURBS blocks in the source,
    and the largest distance from the exact curve (dense samples, 200 per segment)
-   to the polyline sent, against the machine's chord tolerance.
+   to the polyline sent, at the machine's chord tolerance as merge tolerance and at
+   half of it. The vertices are the IPO's period points, quantised to the BLU, so
+   the deviation is the merge tolerance plus up to half a BLU per axis.
 
 Usage: python bench/stream.py
 """
@@ -122,27 +124,31 @@ def nurbs_programs() -> None:
             print(f"  {path.name}: not found (corpus absent), skipped")
             continue
         prog = parse_file(path)
-        t0 = time.perf_counter()
-        lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True))
-        t_gen = time.perf_counter() - t0
         source = path.read_text().splitlines()
-        ents = prog.entities
-        for i, e in enumerate(ents):
-            if not isinstance(e, Nurbs):
-                continue
-            nxt = next((x.line for x in ents[i + 1:] if x.line > e.line), len(source) + 1)
-            blocks = _nurbs_blocks(source, e.line, nxt)
-            segs = [l for l in lines if l.source_line == e.line and l.motion]
-            poly = np.array([segs[0].start_mm] + [l.end_mm for l in segs])
-            dev = _deviation(e, poly)
-            feeds = np.array([float(l.text.rsplit("F", 1)[1]) for l in segs])
-            length = float(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
-            print(f"  {path.name} line {e.line}: {len(segs)} G1 segments for {blocks} NURBS blocks "
-                  f"({len(e.points)} control points, degree {e.degree}, {length:.1f} mm, mean segment "
-                  f"{length / len(segs) * 1e3:.0f} um); max deviation from the exact curve "
-                  f"{dev * 1e3:.2f} um; F {feeds.min():.0f}..{feeds.max():.0f} mm/min "
-                  f"(programmed {e.feed_mm_s * 60:.0f})")
-        print(f"  {path.name}: {len(lines)} stream lines generated in {t_gen:.2f} s")
+        for tol_mm in (CFG.chord_tol_mm, CFG.chord_tol_mm / 2):
+            t0 = time.perf_counter()
+            lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True, merge_tol_mm=tol_mm))
+            t_gen = time.perf_counter() - t0
+            _report(path, prog.entities, source, lines, tol_mm)
+            print(f"  {path.name}: {len(lines)} stream lines generated in {t_gen:.2f} s")
+
+
+def _report(path, ents, source, lines, tol_mm) -> None:
+    for i, e in enumerate(ents):
+        if not isinstance(e, Nurbs):
+            continue
+        nxt = next((x.line for x in ents[i + 1:] if x.line > e.line), len(source) + 1)
+        blocks = _nurbs_blocks(source, e.line, nxt)
+        segs = [l for l in lines if l.source_line == e.line and l.motion]
+        poly = np.array([segs[0].start_mm] + [l.end_mm for l in segs])
+        dev = _deviation(e, poly)
+        feeds = np.array([float(l.text.rsplit("F", 1)[1]) for l in segs])
+        length = float(np.sum(np.linalg.norm(np.diff(poly, axis=0), axis=1)))
+        print(f"  {path.name} line {e.line}, merge tolerance {tol_mm * 1e3:.1f} um: {len(segs)} G1 segments "
+              f"for {blocks} NURBS blocks ({len(e.points)} control points, degree {e.degree}, {length:.1f} mm, "
+              f"mean segment {length / len(segs) * 1e3:.0f} um); max deviation from the exact curve "
+              f"{dev * 1e3:.2f} um; F {feeds.min():.0f}..{feeds.max():.0f} mm/min (programmed "
+              f"{e.feed_mm_s * 60:.0f})")
 
 
 if __name__ == "__main__":
