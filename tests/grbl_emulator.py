@@ -34,6 +34,7 @@ class Faults:
     hang_after_lines: int | None = None  # stop answering anything after this many lines
     garbage_every: int | None = None  # send garbage after every n-th ok
     ack_delay_s: float = 0.0  # time grbl spends on each line before answering
+    realtime_delay_s: float = 0.0  # realtime bytes take effect this late ("within tens of ms")
 
 
 class GrblDouble:
@@ -64,6 +65,7 @@ class GrblDouble:
         self.feed_ov = 100
         self.hung = False
         self._reports = 0
+        self._realtime: deque = deque()  # (due time, byte)
         self._ov_reported = 100
         self._t_block = 0.0
         self._busy_until = 0.0
@@ -79,6 +81,18 @@ class GrblDouble:
         if self.hung:
             return
         for c in data:
+            if c in b"?!~\x18" or c >= 0x80:
+                self._realtime.append((now + self.faults.realtime_delay_s, c))
+            elif len(self.rx) >= self.rx_size - 1:
+                self.rx_overflow += 1
+            else:
+                self.rx.append(c)
+                self.max_rx_fill = max(self.max_rx_fill, len(self.rx))
+        self._apply_realtime(now)
+
+    def _apply_realtime(self, now: float) -> None:
+        while self._realtime and self._realtime[0][0] <= now:
+            c = self._realtime.popleft()[1]
             if c == 0x3F:
                 self._status()
             elif c == 0x21:
@@ -98,13 +112,6 @@ class GrblDouble:
                 self.feed_ov = {0x90: 100, 0x91: self.feed_ov + 10, 0x92: self.feed_ov - 10,
                                 0x93: self.feed_ov + 1, 0x94: self.feed_ov - 1}[c]
                 self.feed_ov = min(200, max(10, self.feed_ov))
-            elif c >= 0x80:
-                pass
-            elif len(self.rx) >= self.rx_size - 1:
-                self.rx_overflow += 1
-            else:
-                self.rx.append(c)
-                self.max_rx_fill = max(self.max_rx_fill, len(self.rx))
 
     def _reset(self):
         moving = self.state == "Run" or (self.state == "Idle" and self.planner)
@@ -139,6 +146,7 @@ class GrblDouble:
     def tick(self, now: float) -> None:
         if self.hung:
             return
+        self._apply_realtime(now)
         self._drain(now)
         while not self.hung and now >= self._busy_until and (i := self.rx.find(b"\n")) >= 0:
             raw = bytes(self.rx[:i]).decode("ascii", "replace").rstrip("\r")
