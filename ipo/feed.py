@@ -25,7 +25,7 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import sample_caps
+from ipo.limits import sample_caps, spread_min
 from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
@@ -73,6 +73,17 @@ class FeedPlanner:
         self._phase = self.T  # time from the first held sample to the next period end
         self._events: list[tuple[float, object]] = []
         self._nurbs: dict[int, NurbsDriver] = {}
+        self._s_last = 0.0  # planned arc length at the end of the last period
+        self._s_out = 0.0  # arc length of the last period sent (S-curve filter output)
+        self._fir = None
+        self._j_max = None
+        if config.accel_mode == "scurve":
+            self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * ACCEL_USE
+            # the filter shifts the path acceleration along the path against the centripetal
+            # share planned for each point: each gets half of every axis limit
+            self.a_max = self.a_max / 2
+            span = max(a.max_accel_mm_s2 / a.max_jerk_mm_s3 for a in config.axes)
+            self._fir = np.zeros(max(int(np.ceil(span / self.T - 1e-9)), 1) - 1)
         self._n_nurbs = 0
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
@@ -207,15 +218,19 @@ class FeedPlanner:
 
     def _caps(self, smp: Samples, pc: Pieces):
         rel = Samples(smp.s, smp.t, smp.kv, smp.piece - self._piece_base, smp.sigma)
-        return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing)
+        return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing,
+                           self._j_max)
 
     # ---- look-ahead and emission -----------------------------------------------------
     def _soft_caps(self) -> tuple[np.ndarray, np.ndarray]:
         loc = self._smp.piece - self._piece_base
         feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
         xf = feed**2
-        prog = xf < self._cap
-        return np.where(prog, xf, self._cap), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
+        hard = self._cap
+        if self._fir is not None:
+            hard = spread_min(self._smp.s, hard, (len(self._fir) + 1) * self.T, float(self.a_max.max()))
+        prog = xf < hard
+        return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
 
     def _plan(self, *, final: bool) -> Iterator:
         while self._smp is not None and len(self._smp) > 1:
@@ -259,7 +274,7 @@ class FeedPlanner:
         tc = la.sample_times(s, xs)
         c_ref = len(s) - 1
         t_next = self._phase
-        s_prev = s[0]
+        s_prev = self._s_last
         k_stop = c
         while True:
             fit = int(np.floor((tc[-1] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[-1] + 1e-12 else 0
@@ -274,8 +289,8 @@ class FeedPlanner:
             sv, kseg = la.positions_at(np.minimum(times, tc[-1]), s, xs, tc)
             if exact_stop:
                 sv[-1] = s[-1]
-            yield from self._batch(sv, s_prev, seg_reason[kseg])
-            s_prev = sv[-1]
+            yield from self._out(sv, s_prev, seg_reason[kseg], flush=stop and n == fit)
+            s_prev = self._s_last = float(sv[-1])
             t_next = times[-1] + self.T
             if n == fit:
                 break
@@ -288,7 +303,8 @@ class FeedPlanner:
                 if more:
                     times = t_next + self.T * np.arange(more)
                     sv, kseg = la.positions_at(times, s, xs, tc)
-                    yield from self._batch(sv, s_prev, seg_reason[kseg])
+                    yield from self._out(sv, s_prev, seg_reason[kseg], flush=False)
+                    s_prev = self._s_last = float(sv[-1])
                     t_next = times[-1] + self.T
                 break
         self._phase = t_next - (tc[r_stop] if k_stop < c else tc[c_ref])
@@ -296,6 +312,31 @@ class FeedPlanner:
         self._drop(k_stop)
         if stop and k_stop == c:
             self._phase = self.T
+
+    def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
+        """Planned arc lengths sv of consecutive periods to the machine. In S-curve mode the
+        path step of each period is the moving average of the last m planned steps (m T =
+        A / J): a trapezoid's acceleration then ramps over m periods, so the jerk stays
+        within A / (m T), and the distance is kept exactly (at a stop the filter is run
+        out with m - 1 standing periods of input)."""
+        if self._fir is None:
+            yield from self._batch(sv, s_prev, limit)
+            return
+        steps = np.diff(sv, prepend=s_prev)
+        if flush:
+            steps = np.concatenate([steps, np.zeros(len(self._fir))])
+            limit = np.concatenate([limit, np.full(len(self._fir), LIMIT_ACCEL, np.int8)])
+        m = len(self._fir) + 1
+        joined = np.concatenate([self._fir, steps])
+        c = np.cumsum(np.concatenate([[0.0], joined]))
+        smooth = (c[m:] - c[:-m]) / m
+        self._fir = joined[len(joined) - (m - 1):].copy() if m > 1 else self._fir
+        s_f = self._s_out + np.cumsum(smooth)
+        if flush:
+            s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
+        prev = self._s_out
+        self._s_out = float(s_f[-1])
+        yield from self._batch(s_f, prev, limit)
 
     def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray) -> Iterator:
         """Points at arc lengths sv, quantised; split where events sit."""
@@ -350,6 +391,9 @@ class FeedPlanner:
         self._smp = self._smp.tail(k)
         self._cap, self._reason, self._corner = self._cap[k:], self._reason[k:], self._corner[k:]
         first = int(self._smp.piece[0]) - self._piece_base
+        if self._fir is not None:  # the filter output lags: keep the pieces it still needs
+            lag = int(np.searchsorted(self._pstart, self._s_out, side="right")) - 1
+            first = min(first, max(lag, 0))
         if first > 0:
             for i in np.unique(self._pieces.nurbs[:first]):
                 if i >= 0 and i not in set(self._pieces.nurbs[first:].tolist()):

@@ -13,6 +13,9 @@ from ipo.period import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LI
 from ipo.roughness import inclination_rad, roughness_feed_mm_s
 
 _TINY = 1e-12
+# The roughness cap is planned a hair below its value: the profile meets it at samples and
+# the per-period feed is a mean over the period, which may otherwise exceed it by ~1e-5.
+ROUGHNESS_USE = 0.9999
 
 
 def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
@@ -63,6 +66,28 @@ def _window_max(s, kappa, reach):
         if j < n:
             m = max(m, kappa[j])
         out[k] = m
+    return out
+
+
+@njit(cache=True)
+def spread_min(s, cap, span_s, accel):
+    """Each cap also holds as far either side as the machine gets in span_s seconds from
+    that speed at acceleration accel (S-curve mode: the moving-average filter mixes the
+    speeds of span_s seconds around each point)."""
+    n = s.shape[0]
+    out = cap.copy()
+    for k in range(n):
+        if not cap[k] < 1e300:
+            continue
+        reach = np.sqrt(cap[k]) * span_s + 0.5 * accel * span_s * span_s
+        j = k - 1
+        while j >= 0 and s[k] - s[j] <= reach:
+            out[j] = min(out[j], cap[k])
+            j -= 1
+        j = k + 1
+        while j < n and s[j] - s[k] <= reach:
+            out[j] = min(out[j], cap[k])
+            j += 1
     return out
 
 
@@ -124,13 +149,16 @@ def _least_inclination(t: np.ndarray) -> np.ndarray:
 
 
 def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, delta_mm: float,
-                finishing: tuple[float, float, float, int] | None
+                finishing: tuple[float, float, float, int] | None, j_max: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cap on v^2 at every sample from all limits except the programmed feed, its reason,
     and which samples sit on a sharp (unblended) corner.
 
     `finishing` = (ball radius, pick feed, roughness target, flutes) switches on 002's
-    limiter for feed moves while the spindle turns; None switches it off.
+    limiter for feed moves while the spindle turns; None switches it off. With j_max
+    (S-curve mode) a jump of the curvature vector where pieces meet, which steps each
+    axis acceleration within a period, is kept within the jerk limit:
+    v^2 |dkv_i| <= J_i T; an unblended corner, v |dt_i| <= J_i T^2 / 2.
     """
     x_axis = axis_velocity_cap(smp.t, v_max)
     x_curv = curvature_cap(smp.t, smp.kv, a_max)
@@ -145,6 +173,14 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     x_corner[k + 1] = c
     corner = np.zeros(len(smp), bool)
     corner[k] = corner[k + 1] = True
+    if j_max is not None:
+        with np.errstate(divide="ignore"):
+            dk = np.abs(smp.kv[edge + 1] - smp.kv[edge])
+            x_jerk = np.min(j_max[None, :] * period_s / dk, axis=1)
+            v_sharp = np.min(0.5 * j_max[None, :] * period_s**2 / np.abs(dt), axis=1)
+        x_jerk = np.where(sharp, np.minimum(x_jerk, v_sharp**2), x_jerk)
+        x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
+        x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
     x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
     caps.append((x_chord, LIMIT_CHORD))
@@ -152,7 +188,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         r, pick, target, flutes = finishing
         rpm = pc.rpm[smp.piece]
         active = ~pc.rapid[smp.piece] & (rpm > 0)
-        f = roughness_feed_mm_s(r, pick, target, flutes, rpm, _least_inclination(smp.t))
+        f = roughness_feed_mm_s(r, pick, target, flutes, rpm, _least_inclination(smp.t)) * ROUGHNESS_USE
         caps.append((np.where(active, f**2, np.inf), LIMIT_ROUGHNESS))
     cap, reason = combine(caps)
     last = np.concatenate([edge, [len(smp) - 1]])

@@ -182,7 +182,8 @@ def test_roughness_limiter_on_flat_and_steep_moves():
         dataclasses.replace(a, max_velocity_mm_s=200.0) for a in cfg.axes)))
     flat = out["feed_mm_s"][out["line"] == 2].max() * 60
     steep = out["feed_mm_s"][out["line"] == 3].max() * 60
-    assert flat == pytest.approx(2 * 12500 * np.sqrt(2 * 3 * 0.0033 - 0.0033**2), rel=1e-6)
+    assert flat == pytest.approx(2 * 12500 * np.sqrt(2 * 3 * 0.0033 - 0.0033**2), rel=2e-4)
+    assert flat <= 2 * 12500 * np.sqrt(2 * 3 * 0.0033 - 0.0033**2)
     assert (out["limit"] == LIMIT_ROUGHNESS).any()
     assert steep == pytest.approx(5000, rel=1e-6)
     assert isinstance(items[0], Spindle)
