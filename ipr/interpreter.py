@@ -43,6 +43,7 @@ class Interpreter:
         self.warnings: list[Diagnostic] = []
         self._plans: dict = {}
         self._percents = 0
+        self._started = False   # a block with words has been read (then % no longer opens)
         self.done = False
 
     # ---- errors -------------------------------------------------------------------
@@ -123,7 +124,10 @@ class Interpreter:
     def _template(self, plan, parts: list[str], line: int, text: str) -> None:
         """A simple line (words with plain numbers) that is not a plain G0/G1 move."""
         tpl, spec, _ = plan
-        if not tpl.letters or tpl.delete and self.setup.block_delete:
+        if not tpl.letters:
+            return
+        self._started = True
+        if tpl.delete and self.setup.block_delete:
             return
         if spec.__class__ is BlockError:
             raise spec
@@ -139,9 +143,16 @@ class Interpreter:
         except LineSyntaxError as e:
             raise BlockError("E-SYNTAX", e.message, col=e.col) from None
         if block.percent:
-            self._percents += 1
-            self.done = self._percents == 2  # the second % ends the program
+            # % opens a program on its first line and then closes it; anywhere else it is wrong
+            if self._percents == 0 and not self._started:
+                self._percents = 1
+            elif self._percents == 1:
+                self.done = True
+            else:
+                raise BlockError("E-SYNTAX", "% may only open a program (first line) and close it", col=1)
             return
+        if block.words or block.assigns:
+            self._started = True
         if block.delete and self.setup.block_delete:
             return
         params = self.state.params
@@ -172,6 +183,7 @@ class Interpreter:
     def _linear(self, motion: int, fast: tuple, parts: list, line: int) -> None:
         """G0/G1 with only axis words, F and N: same checks as _execute, less overhead."""
         s = self.state
+        self._started = True
         _, f_part, end_abs, end_inc = fast
         feed_mm_s = s.feed_mm_s
         if f_part is not None:

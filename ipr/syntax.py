@@ -103,6 +103,10 @@ class _ToBlock(Transformer):
         letter = items[0]
         return ("word", letter.upper(), items[1], letter.column)
 
+    def line_number(self, items):
+        letter = items[0]
+        return ("word", "N", _to_float(items[1]), letter.column)
+
     def assignment(self, items):
         target, value = items[0], items[-1]
         key = target[1]
@@ -186,7 +190,10 @@ def template_for(shape: str) -> Template | None:
     if _SIMPLE_SHAPE.fullmatch(shape) is None:
         return None
     parts = shape.split("\x00")
-    block = parse_line_full("0".join(parts))
+    try:
+        block = parse_line_full("0".join(parts))
+    except LineSyntaxError:
+        return None   # the full grammar will report it, at the right column
     letters = tuple(w[0] for w in block.words)
     slots = tuple(i for i, w in enumerate(block.words) if w[0] not in "GM")
     if len(slots) != len(parts) - 1:

@@ -32,6 +32,18 @@ def test_percent_starts_and_ends_the_program():
     assert [m.end for m in out] == [(1.0, 0.0, 0.0)]
 
 
+def test_percent_only_opens_and_closes():
+    assert [m.end for m in moves("(title)\n\n%\nG0 X1\n%\n")] == [(1.0, 0.0, 0.0)]
+    d = error("G0 X1\n%\n")
+    assert (d.code, d.line, d.col) == ("E-SYNTAX", 2, 1)
+
+
+def test_line_number_only_opens_a_block():
+    assert moves("N5 G0 X1\n")[0].end == (1.0, 0.0, 0.0)
+    d = error("G1 F100 X1 N5\n")
+    assert (d.code, d.line, d.col) == ("E-SYNTAX", 1, 12)
+
+
 def test_program_number_is_recorded():
     assert ipr.parse_text("O1234\nG0 X1\n").program_number == 1234
 
