@@ -8,15 +8,17 @@
 """
 from __future__ import annotations
 
+import math
+import os
+import re
+
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-import math
-import os
-
 import ipr
-from ipr.entities import MOTION_TYPES, Dwell, GCodeError
+from ipr.entities import MOTION_TYPES, Dwell, GCodeError, Nurbs
 from ipr.syntax import LineSyntaxError
 
 # VCNC_FUZZ_EXAMPLES=5000 for a deep run; the default keeps the suite fast.
@@ -211,6 +213,62 @@ def test_hostile_values_give_clear_errors(value: str) -> None:
             first_line = str(exc).splitlines()[0][:200] if str(exc) else ""
             problems.append(f"{context.format(v=value[:40])!r}: {type(exc).__name__}: {first_line}")
     assert not problems, "\n".join(problems)
+
+
+_NURBS_GROUPS = [
+    ["G06.2 P4 K0. X0. Y0. Z0. R1. F5000.", "K0. X10. Y5. Z0. R1.", "K0. X20. Y-5. Z0. R2.", "K0. X30. Y0. Z0. R1.",
+     "K1.", "K1.", "K1.", "K1.", "G1 X0"],
+    ["G5.2 X0 Y1 P1 L3", "X2 Y2 P1", "X2 Y0 P1", "X0 Y0 P2", "G5.3", "G0 X1"],
+    ["G6.2 X0 Y0 R1 K0 P3 Q1", "X1 Y2 R1 K0", "X3 Y2 R1.5 K0", "X4 Y0 R1 K1", "X6 Y1 R1 K2",
+     "G6.2 K3", "G6.2 K3", "G6.2 K3", "G1 X0 Y0"],
+]
+_NUMBER_TOKEN = re.compile(r"(?<=[A-Za-z])[-+]?[0-9.]+")
+
+
+@st.composite
+def mutated_nurbs_program(draw) -> str:
+    """A NURBS group (Fanuc G06.2, LinuxCNC G5.2 or G6.2) with lines dropped, repeated, swapped or
+    cut, and numbers replaced: exercises the group and knot-vector validation."""
+    lines = list(draw(st.sampled_from(_NURBS_GROUPS)))
+    for _ in range(draw(st.integers(1, 4))):
+        i = draw(st.integers(0, len(lines) - 1))
+        op = draw(st.sampled_from(["drop", "repeat", "swap", "cut", "number", "number", "plane", "g91"]))
+        if op == "drop" and len(lines) > 1:
+            del lines[i]
+        elif op == "repeat":
+            lines.insert(i, lines[i])
+        elif op == "swap":
+            j = draw(st.integers(0, len(lines) - 1))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif op == "cut":
+            lines[i] = lines[i][:draw(st.integers(0, len(lines[i])))]
+        elif op == "number":
+            spans = [m.span() for m in _NUMBER_TOKEN.finditer(lines[i])]
+            if spans:
+                a, b = spans[draw(st.integers(0, len(spans) - 1))]
+                value = draw(st.sampled_from(["0", "-1", "1", "2", "7", "0.5", "1e3", "-0", "99999999", "6", "1."]))
+                lines[i] = lines[i][:a] + value + lines[i][b:]
+        elif op == "plane":
+            lines.insert(i, draw(st.sampled_from(["G18", "G19", "G17", "G20", "G91", "G92 X1"])))
+        else:
+            lines.insert(0, "G91")
+    return "G21 G90 G17 F600\nG0 X0 Y0 Z0\n" + "\n".join(lines) + "\n"
+
+
+@SETTINGS
+@given(mutated_nurbs_program(), st.booleans())
+def test_mutated_nurbs_groups_only_raise_gcode_error(text: str, all_errors: bool) -> None:
+    try:
+        program = ipr.parse_text(text, "nurbs.ngc", all_errors=all_errors)
+    except GCodeError as err:
+        _check_diagnostics(err.diagnostics, text.split("\n")[:-1])
+        return
+    _check_finite(program)
+    for curve in (m for m in program.entities if isinstance(m, Nurbs)):  # what is accepted is a valid curve
+        n, p = len(curve.points), curve.degree
+        assert 1 <= p <= 5 and len(curve.knots) == n + p + 1 and n >= p + 1
+        assert np.all(np.diff(curve.knots) >= 0) and np.all(curve.weights > 0)
+        assert np.all(curve.knots[:p + 1] == curve.knots[0]) and np.all(curve.knots[-p - 1:] == curve.knots[-1])
 
 
 def _outcome(parse, line: str):
