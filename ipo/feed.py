@@ -78,7 +78,9 @@ class FeedPlanner:
         self._fir = None
         self._j_max = None
         if config.accel_mode == "scurve":
-            self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * ACCEL_USE
+            # the filter's own ramps use up to half of J (half of A over A / J seconds); the
+            # steps of curvature where pieces meet get the other half
+            self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * (0.5 * ACCEL_USE)
             # the filter shifts the path acceleration along the path against the centripetal
             # share planned for each point: each gets half of every axis limit
             self.a_max = self.a_max / 2

@@ -243,3 +243,39 @@ def test_streams_with_bounded_look_ahead():
 def test_start_mismatch_is_an_error():
     with pytest.raises(ValueError, match="stands at"):
         list(plan_periods([Line(1, (1, 0, 0), (2, 0, 0), 10.0)], BASE, start_mm=(0, 0, 0)))
+
+
+@pytest.mark.parametrize("name", ["line", "g2", "nurbs", "blended_corner"])
+def test_scurve_mode_limits_jerk(name):
+    """S-curve mode: finite-difference jerk within J (plus float noise), accel within A."""
+    cfg = dataclasses.replace(FINE, accel_mode="scurve")
+    j_max = np.array([a.max_jerk_mm_s3 for a in cfg.axes])
+    ents = {"line": [Line(1, (0, 0, 0), (30, 10, 0), 60.0)],
+            "g2": [Arc(1, (10, 0, 0), (10, 0, 0), (0, 0, 0), "XY", False, 50.0)],
+            "nurbs": [quarter_nurbs(50.0)],
+            "blended_corner": [Line(1, (0, 0, 0), (10, 0, 0), 40.0, PathControl(blend_tol_mm=0.2)),
+                               Line(2, (10, 0, 0), (20, 10, 0), 40.0, PathControl(blend_tol_mm=0.2))]}[name]
+    _, out, start = run(ents, cfg=cfg)
+    v, a = finite_differences(out["pos_mm"], start)
+    jerk = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / T
+    assert np.all(np.abs(a) <= A + 1e-3)
+    assert np.all(np.abs(jerk) <= j_max * 1.01), np.abs(jerk).max(0)
+    np.testing.assert_allclose(out["pos_mm"][-1], ents[-1].end, atol=1e-9)
+    _, trap, _ = run(ents)
+    assert len(out["pos_mm"]) > len(trap["pos_mm"])  # jerk limiting costs time
+
+
+def test_corner_blend_next_to_an_arc_stays_within_p():
+    """Line into a non-tangent arc under G64 P0.05: the path is rounded (no stop) and stays
+    within P (+ delta for the chords) of the programmed line and circle."""
+    p = PathControl(blend_tol_mm=0.05)
+    ents = [Line(1, (0, 0, 0), (10, 0, 0), 40.0, p), Arc(2, (10, 0, 0), (10, 10, 0), (15, 5, 0), "XY", True, 40.0, path=p)]
+    _, out, start = run(ents)
+    pos = out["pos_mm"]
+    on_line = pos[:, 0] <= 10 - 1e-9
+    dev_line = np.abs(pos[on_line, 1])
+    dev_arc = np.abs(np.linalg.norm(pos[~on_line, :2] - [15, 5], axis=1) - np.hypot(5, 5))
+    assert max(dev_line.max(), dev_arc.max()) <= 0.05 + BASE.chord_tol_mm
+    near = np.linalg.norm(pos - [10, 0, 0], axis=1) < 0.2
+    assert out["feed_mm_s"][near].min() > 5.0  # a sharp 45 deg corner would need < 1 mm/s
+    assert_within_limits(pos, start)
