@@ -141,6 +141,19 @@ def test_lines_grbl_ran_past_a_rejected_line_are_reported_and_fail_the_ledger():
     assert bad.end_mm not in [tuple(r) for r in ran]
 
 
+def test_a_closed_path_is_not_run_twice_when_grbl_stood_idle():
+    """The full circle (line 67) ends where it starts; grbl had run it and stood idle when
+    line 68 was rejected, so the resume point is 68, not the circle again."""
+    bad = next(l for l in LINES if l.source_line == 68)
+    d = GrblDouble(drain_s_per_block=0.0, faults=Faults(error_on={bad.text: 20}))
+    with PtyServer(d).start() as srv:
+        res, _ = _session(srv.port, LINES)
+        assert res.resume.seq == bad.seq and not res.resume.partial
+        res2, _ = _session(srv.port, LINES, resume_from=res.resume.seq)
+    _assert_covers(res.ledger, res2.ledger, len(LINES))
+    _assert_ran_once(d)
+
+
 def test_alarm_stops_requires_unlock_and_resume_finishes():
     bad = next(l for l in LINES if l.source_line == 30)
     d = GrblDouble(drain_s_per_block=0.003, faults=Faults(alarm_on={bad.text: 2}))

@@ -73,7 +73,7 @@ def _dry_run(protocol, program, config, resume_from) -> None:
         click.echo(f"notice: {n}", err=True)
 
 
-def _progress(console, live):
+def _progress(live):
     from rich.text import Text
 
     from machine.grbl import protocol as P
@@ -132,9 +132,8 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
                           f"continuing from stream line {resume.seq}"
                           + (" (inside it)" if resume.partial else ""))
         ledger = Ledger(resume.seq if resume else 1)
-        kb, update = None, None
         with Live(Text(""), console=console, refresh_per_second=5) as live:
-            kb, update = _progress(console, live)
+            kb, update = _progress(live)
             with kb:
                 result = link.stream(lines, ledger, resume=resume, on_progress=update)
     except (LinkError, ResumeError) as err:

@@ -308,6 +308,7 @@ class GrblLink:
         t_end = time.monotonic() + self.reset_timeout_s
         t_poll = t_answer = 0.0
         still = False
+        done = None  # set when the hold finds grbl idle: every line answered ok by then has run
         while time.monotonic() < t_end:
             now = time.monotonic()
             if still and (not ledger.waiting or now - t_answer > self.settle_s):
@@ -325,19 +326,24 @@ class GrblLink:
                                                                        and self.status.substate == 0)
                     if still and not was:
                         t_answer = max(t_answer, time.monotonic())
+                        if self.status.state == "Idle":
+                            done = ledger.last_acknowledged
         self.soft_reset(ledger)
         st = self.query_status()
         result.status = st
         if st.wpos is None:
             raise LinkError("grbl gave no work position (WCO missing) after the reset")
-        window = _window(list(recent), ledger, self.planner_blocks)
+        if done is not None:
+            window = [l for l in recent if l.seq > done]
+        else:
+            window = _window(list(recent), ledger, self.planner_blocks)
         try:
             result.resume = find_resume(window, st.wpos)
         except ResumeError as exc:
             result.fault.message += f"; {exc}"
             return
         ledger.resume_from = result.resume.seq
-        if result.fault.kind == "error" and result.resume.seq > result.fault.seq:
+        if result.fault.kind == "error" and 0 < result.fault.seq < result.resume.seq:
             # grbl goes on with the lines already in its buffer after an error: character
             # counting cannot take them back, and the hold may come too late to stop them
             result.fault.message += (f"; WARNING: grbl ran stream lines {result.fault.seq + 1}.."
