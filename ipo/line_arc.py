@@ -119,6 +119,8 @@ def _arc_len(g, th):
     (constant speed) and within ~1e-15 relative for the slight spiral of a radius mismatch."""
     c = g[_RHO] ** 2 + g[_K] ** 2
     r0 = g[_R0]
+    if g[_RHO] == 0.0:
+        return th * sqrt(r0 * r0 + c)
     rm = g[_R0] + g[_RHO] * 0.5 * th
     r1 = g[_R0] + g[_RHO] * th
     return th / 6.0 * (sqrt(r0 * r0 + c) + 4.0 * sqrt(rm * rm + c) + sqrt(r1 * r1 + c))
@@ -176,7 +178,9 @@ def _arc_sweep_for_chord(g, th_a, pa, pb, pn, d, rem):
         nxt = phi - h / dh if dh > 0.0 else inf
         if not (lo < nxt < hi):
             nxt = 0.5 * (lo + hi)
-        if abs(nxt - phi) <= 2e-16 * phi or hi - lo <= 2e-16 * hi:
+        # Quadratic convergence: a step this small leaves an error far below it; the
+        # absolute term is the rounding floor of the angle argument alpha0 + theta.
+        if abs(nxt - phi) <= 1e-13 * phi + 4e-16 * (1.0 + th_a) or hi - lo <= 4e-16 * hi:
             return nxt
         phi = nxt
     return phi
@@ -187,10 +191,18 @@ def _arc_run(g, ia, ib, inn, end, th0, steps, off, pos, u):
     """Fill pos/u for each period; returns (periods, done, carry_mm, theta)."""
     th = th0
     pa, pb, pn = _arc_xyz(g, th)
+    # On a circle or helix the chord depends on the swept angle alone, and rises
+    # monotonically up to half a turn: a repeated step reuses the last angle.
+    d_last, phi_last = -1.0, -1.0
     for j in range(steps.shape[0]):
         d = max(steps[j] - off, 0.0) if j == 0 else steps[j]
         if d > 0.0:
-            phi = _arc_sweep_for_chord(g, th, pa, pb, pn, d, g[_THETA] - th)
+            rem = g[_THETA] - th
+            if d == d_last and g[_RHO] == 0.0 and phi_last <= pi and phi_last < rem:
+                phi = phi_last
+            else:
+                phi = _arc_sweep_for_chord(g, th, pa, pb, pn, d, rem)
+                d_last, phi_last = d, phi
             if phi < 0.0:
                 pos[j, :] = end
                 u[j] = _arc_len(g, g[_THETA])
