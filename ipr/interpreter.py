@@ -198,7 +198,7 @@ class Interpreter:
             if motion == 10:
                 if feed_mm_s <= 0.0:
                     raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
-                                     col=_col(parts, _first_slot(end_abs)))
+                                     col=_col(parts, end_abs.first_part))
                 self.out.append(Line(line, pos, end, feed_mm_s, s.path))
             else:
                 self.out.append(Rapid(line, pos, end, s.path))
@@ -219,7 +219,7 @@ class Interpreter:
         out: list = [Message(line, m) for m in messages]
         notices: list = []
         idx, g, m = spec.index, spec.g, spec.m
-        if base.nurbs is not None and spec.index.keys() | g.keys() | m.keys():
+        if base.nurbs is not None and (idx.keys() - {"N"}) | g.keys() | m.keys():
             if g.get("motion", base.nurbs.kind) in (base.nurbs.kind, 53):
                 nurbs = nurbs_blocks.continue_group(st, spec, vals)
                 if nurbs is not None:
@@ -262,10 +262,6 @@ def _end_functions(axis_parts: dict[int, int]):
     end_inc = eval(make.format(", ".join(incremental)), {"float": float})
     end_abs.first_part = end_inc.first_part = min(axis_parts.values())
     return end_abs, end_inc
-
-
-def _first_slot(end_function) -> int:
-    return end_function.first_part
 
 
 def _col(parts: list[str], p: int) -> int:
