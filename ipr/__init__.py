@@ -58,12 +58,15 @@ def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool)
 def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
                all_errors: bool = False) -> Program:
     """Interpret a whole program; raises GCodeError with the first error (or all of them)."""
-    return _run(text.split("\n"), file, setup, all_errors)
+    return _run(text.removeprefix("\ufeff").split("\n"), file, setup, all_errors)
 
 
 def _file_lines(path) -> Iterator[str]:
     """The file's lines, split at "\n" only (as parse_text does); undecodable bytes replaced."""
     with open(path, "rb") as f:
+        first = f.readline()
+        if first:
+            yield first.removeprefix(b"\xef\xbb\xbf").decode("utf-8", "replace")   # BOM: no text
         for raw in f:
             yield raw.decode("utf-8", "replace")
 

@@ -44,6 +44,13 @@ def test_line_number_only_opens_a_block():
     assert (d.code, d.line, d.col) == ("E-SYNTAX", 1, 12)
 
 
+def test_byte_order_mark_is_not_text(tmp_path):
+    path = tmp_path / "bom.nc"
+    path.write_bytes(b"\xef\xbb\xbfG0 X1\r\nG0 X2\r\n")
+    assert [m.end[0] for m in ipr.parse_file(path).entities] == [1.0, 2.0]
+    assert [m.end[0] for m in moves("\ufeffG0 X1\n")] == [1.0]
+
+
 def test_program_number_is_recorded():
     assert ipr.parse_text("O1234\nG0 X1\n").program_number == 1234
 
