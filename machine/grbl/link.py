@@ -253,13 +253,13 @@ class GrblLink:
                 for r in self._read():
                     if r.kind in ("ok", "error"):
                         seq, _ = ledger.answered(r.kind == "ok", r.code)
-                        if r.kind == "error":
+                        if r.kind == "error" and result.fault is None:
                             line = next((l for l in recent if l.seq == seq), None)
                             src = line.source_line if line else 0
                             what = f"stream line {seq} (program line {src}, {line.text if line else ''!r})"
                             result.fault = Fault("error", f"grbl error:{r.code} on {what}: "
                                                  f"{P.error_meaning(r.code)}", seq, src)
-                    elif r.kind == "alarm":
+                    elif r.kind == "alarm" and (result.fault is None or result.fault.kind != "alarm"):
                         result.fault = Fault("alarm", f"grbl ALARM:{r.code}: {P.alarm_meaning(r.code)} "
                                              f"Clear it with $X (or home, or reset) before resuming.", 0, 0)
                     elif r.kind == "banner":
@@ -267,8 +267,6 @@ class GrblLink:
                         ledger.discard_waiting()
                     elif r.kind == "status" and draining:
                         idle = self.status.state == "Idle"
-                    if result.fault:
-                        break
                 if on_progress and now - t_prog >= progress_interval_s:
                     on_progress(self, ledger)
                     t_prog = now
