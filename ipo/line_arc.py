@@ -15,7 +15,7 @@ is that far away (a step wider than the arc), the period reaches the end.
 """
 from __future__ import annotations
 
-from math import atan2, cos, hypot, inf, pi, sin, sqrt
+from math import atan2, cos, hypot, inf, isfinite, pi, sin, sqrt
 
 import numpy as np
 from numba import njit
@@ -33,7 +33,7 @@ def _check_steps(steps_mm, lead_mm: float, first: bool) -> tuple[np.ndarray, flo
     steps = np.ascontiguousarray(steps_mm, dtype=np.float64)
     if steps.ndim != 1:
         raise ValueError(f"steps_mm must be one-dimensional, got shape {steps.shape}")
-    if steps.size and not (np.isfinite(steps).all() and steps.min() >= 0.0):
+    if not _all_finite_nonneg(steps):
         raise ValueError("steps_mm must be finite and >= 0")
     off = lead_mm if first else 0.0
     if steps.size and off > 0.0 and steps[0] < off - _LEAD_NOISE_MM:
@@ -41,27 +41,36 @@ def _check_steps(steps_mm, lead_mm: float, first: bool) -> tuple[np.ndarray, flo
     return steps, off
 
 
+@njit(cache=True)
+def _all_finite_nonneg(a):
+    for x in a:
+        if not (x >= 0.0 and x < inf):
+            return False
+    return True
+
+
 def _check_lead(lead_mm: float) -> float:
     lead = float(lead_mm)
-    if not (np.isfinite(lead) and lead >= 0.0):
+    if not (isfinite(lead) and lead >= 0.0):
         raise ValueError(f"lead_mm must be finite and >= 0, got {lead_mm}")
     return lead
 
 
 @njit(cache=True)
-def _line_run(start, unit, length, end, s0, steps, off, pos, u):
-    """Fill pos/u for each period; returns (periods, done, carry_mm, s)."""
+def _line_run(g, length, s0, steps, off, pos, u):
+    """Fill pos/u for each period; returns (periods, done, carry_mm, s).
+    g holds start (0:3), unit direction (3:6) and end (6:9)."""
     s = s0
     for j in range(steps.shape[0]):
         d = max(steps[j] - off, 0.0) if j == 0 else steps[j]
         rem = length - s
         if d >= rem:
-            pos[j, :] = end
+            pos[j, :] = g[6:9]
             u[j] = length
             return j + 1, True, d - rem, length
         s += d
         for i in range(3):
-            pos[j, i] = start[i] + unit[i] * s
+            pos[j, i] = g[i] + g[3 + i] * s
         u[j] = s
     return steps.shape[0], False, 0.0, s
 
@@ -74,13 +83,15 @@ class LineStepper:
     def __init__(self, entity: Rapid | Line, lead_mm: float = 0.0):
         if not isinstance(entity, (Rapid, Line)):
             raise TypeError(f"LineStepper needs a Rapid or Line, got {type(entity).__name__}")
-        self._start = np.array(entity.start, dtype=np.float64)
-        self._end = np.array(entity.end, dtype=np.float64)
-        if not (np.isfinite(self._start).all() and np.isfinite(self._end).all()):
+        # plain floats, not arrays: programs of short moves build one stepper per block
+        start = tuple(map(float, entity.start))
+        end = tuple(map(float, entity.end))
+        if not all(map(isfinite, start + end)):
             raise ValueError(f"line {entity.line}: non-finite start or end point")
-        delta = self._end - self._start
-        self.length_mm = float(np.sqrt(delta @ delta))
-        self._unit = delta / self.length_mm if self.length_mm > 0.0 else np.zeros(3)
+        delta = (end[0] - start[0], end[1] - start[1], end[2] - start[2])
+        self.length_mm = hypot(*delta)
+        inv = 1.0 / self.length_mm if self.length_mm > 0.0 else 0.0
+        self._g = np.array(start + (delta[0] * inv, delta[1] * inv, delta[2] * inv) + end)
         self._lead = _check_lead(lead_mm)
         self._s = 0.0
         self._first = True
@@ -93,8 +104,7 @@ class LineStepper:
         n = steps.shape[0]
         pos = np.empty((n, 3))
         u = np.empty(n)
-        k, done, carry, self._s = _line_run(self._start, self._unit, self.length_mm, self._end,
-                                            self._s, steps, off, pos, u)
+        k, done, carry, self._s = _line_run(self._g, self.length_mm, self._s, steps, off, pos, u)
         if n:
             self._first = False
         self.done = bool(done)
