@@ -169,7 +169,8 @@ def parse_line_full(text: str) -> Block:
 
 # Numbers directly after a letter other than G/M become slots; G and M numbers stay in
 # the shape because they select the codes.
-_SLOT = re.compile(r"(?<=[A-FH-LN-Za-fh-ln-z])([-+]?(?:[0-9]{1,30}(?:\.[0-9]{0,30})?|\.[0-9]{1,30}))(?![0-9])")
+_D = MAX_DIGITS
+_SLOT = re.compile(rf"(?<=[A-FH-LN-Za-fh-ln-z])([-+]?(?:[0-9]{{1,{_D}}}(?:\.[0-9]{{0,{_D}}})?|\.[0-9]{{1,{_D}}}))(?![0-9])")
 _SIMPLE_SHAPE = re.compile(r"[ \t]*(?:/[ \t]*)?(?:(?:[GMgm](?:[0-9]+\.?[0-9]*|\.[0-9]+)|[A-FH-LN-Za-fh-ln-z]\x00)[ \t]*)*\r?\n?")
 _SHAPE_CACHE_MAX = 4096
 
