@@ -236,25 +236,56 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     return RationalFit(degree, knots, w, points, u, np.array(history), converged)
 
 
-def _residual2(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray) -> float:
-    return float(np.sum((q - (n_mat @ wp) / (n_mat @ w)[:, None]) ** 2))
+def _wp_map(n_mat: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """L with WP = L[c] @ w per coordinate c: eq. 7's least-squares WP is linear in the weights
+    (its right-hand side Q_j sum_i N_i w_i is), with the end points pinned. Shape (dim, m, m)."""
+    r, m = n_mat.shape
+    dim = q.shape[1]
+    pinv = np.linalg.pinv(n_mat[:, 1:-1])
+    out = np.zeros((dim, m, m))
+    for c in range(dim):
+        rhs = q[:, c, None] * n_mat
+        rhs[:, 0] -= n_mat[:, 0] * q[0, c]
+        rhs[:, -1] -= n_mat[:, -1] * q[-1, c]
+        out[c, 1:-1] = pinv @ rhs
+        out[c, 0, 0], out[c, -1, -1] = q[0, c], q[-1, c]
+    return out
 
 
 def _weight_step(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray):
-    """001 eq. 9 for the weights, then eq. 7 again for WP under them, taken only as far as it
-    lowers the data error at the current parameters (halving the step up to 4 times).
+    """New weights and the eq. 7 WP under them, only if they lower the data error (eq. 1)
+    at the current parameters; returns (WP, w) with the largest weight 1.
 
-    Eq. 9 minimises the homogeneous residual, not the distance; unguarded, its steps
-    can make the fit worse than the non-rational one. Returns (WP, w), largest w = 1."""
-    target = _positive_step(w, _solve_weights(n_mat, q, wp, w))
-    now = _residual2(n_mat, q, wp, w)
-    for t in (1.0, 0.5, 0.25, 0.125, 0.0625):
-        w_try = w + t * (target - w)
-        wp_try = _solve_wp(n_mat, q, w_try)
-        if _residual2(n_mat, q, wp_try, w_try) < now:
-            s = w_try.max()
-            return wp_try / s, w_try / s
-    return wp, w
+    Two candidates: 001's eq. 9 (it minimises the homogeneous residual, which is not
+    the distance, so its step alone can make the fit worse) and a Levenberg–Marquardt
+    step on eq. 1 itself with WP eliminated through eq. 7 (C(u_j) is then a ratio of
+    two linear functions of w, so the Jacobian is exact). The better one is taken."""
+    lmap = _wp_map(n_mat, q)
+    num = np.einsum("ji,cik->cjk", n_mat, lmap)  # (dim, r, m): numerator of C(u_j) per unit w
+
+    def error(wt):
+        den = n_mat @ wt
+        c = np.einsum("cjk,k->jc", num, wt) / den[:, None]
+        return q - c, c, den
+
+    err, c, den = error(w)
+    now = float(np.sum(err**2))
+    trials = [_positive_step(w, _solve_weights(n_mat, q, wp, w))]  # 001 eq. 9
+    jac = np.concatenate([(num[k] - c[:, k, None] * n_mat) / den[:, None] for k in range(q.shape[1])])
+    jtj, jte = jac.T @ jac, jac.T @ np.concatenate([err[:, k] for k in range(q.shape[1])])
+    diag = np.diag(np.diag(jtj) + 1e-12 * max(np.trace(jtj), 1e-300))
+    for mu in (1e-3, 1e-2, 1e-1, 1.0):
+        trials.append(_positive_step(w, w + np.linalg.solve(jtj + mu * diag, jte)))
+    best, best_err = None, now
+    for wt in trials:
+        e2 = float(np.sum(error(wt)[0] ** 2))
+        if e2 < best_err:
+            best, best_err = wt, e2
+    if best is None:
+        return wp, w
+    wp_new = np.stack([lmap[k] @ best for k in range(q.shape[1])], axis=1)
+    s = best.max()
+    return wp_new / s, best / s
 
 
 def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:
