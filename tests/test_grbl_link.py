@@ -54,13 +54,24 @@ def _session(port, lines, *, resume_from=None, unlock=False, **kw):
         link.close()
 
 
-def _assert_ran_once(double: GrblDouble):
+def _assert_ran_once(double: GrblDouble, lines=None):
+    ends = MOTION_ENDS if lines is None else [l.end_mm for l in lines if l.motion]
     ran = [t for _, t in double.executed if t is not None]
-    assert len(ran) == len(MOTION_ENDS)
-    for got, want in zip(ran, MOTION_ENDS):
+    assert len(ran) == len(ends)
+    for got, want in zip(ran, ends):
         assert got == pytest.approx(want, abs=1e-4)
-    assert double.pos == pytest.approx(list(MOTION_ENDS[-1]), abs=1e-4)
+    assert double.pos == pytest.approx(list(ends[-1]), abs=1e-4)
     assert double.rx_overflow == 0 and double.max_rx_fill <= 127
+
+
+def _semicircles(n=30):
+    """n half circles of radius 2 along X, turning alternately (G2, G3)."""
+    ents, p = [Rapid(1, (0.0, 0.0, 0.0), (0.0, 0.0, -1.0))], (0.0, 0.0, -1.0)
+    for i in range(n):
+        q = (p[0] + 4.0, 0.0, -1.0)
+        ents.append(Arc(2 + i, p, q, (p[0] + 2.0, 0.0, -1.0), "XY", bool(i % 2), 20.0))
+        p = q
+    return list(stream_lines(ents, CFG))
 
 
 def _assert_covers(first, second, total):
@@ -104,23 +115,23 @@ def test_error_on_a_line_stops_reports_and_resume_finishes():
     _assert_ran_once(d)
 
 
-@pytest.mark.parametrize("error_line, blocks, cut_kind", [(46, 15, "G1"), (68, 2, "G2")])
-def test_hold_inside_a_block_resumes_from_the_machine_position(error_line, blocks, cut_kind):
-    """A hold stops inside the running block (a line, or with a 2-block planner the full
-    circle): the resumed stream sends that line from where the machine stands."""
-    bad = next(l for l in LINES if l.source_line == error_line)
-    d = GrblDouble(drain_s_per_block=0.03, planner_blocks=blocks, partial_blocks=True,
-                   faults=Faults(error_on={bad.text: 20}))
+@pytest.mark.parametrize("arcs", [False, True])
+def test_hold_inside_a_block_resumes_from_the_machine_position(arcs):
+    """A hold stops inside the running block (a line, or an arc): the resumed stream sends
+    that line from where the machine stands (an arc with its IJK from there)."""
+    lines = _semicircles() if arcs else LINES
+    bad = next(l for l in lines if l.source_line == (25 if arcs else 46))
+    d = GrblDouble(drain_s_per_block=0.03, partial_blocks=True, faults=Faults(error_on={bad.text: 20}))
     with PtyServer(d).start() as srv:
-        res, _ = _session(srv.port, LINES)
+        res, _ = _session(srv.port, lines)
         assert res.fault.kind == "error" and res.resume.partial  # stopped inside a block, not at its end
         cut, where = d.partials[-1]
-        assert cut_kind in cut
+        assert ("G2" in cut or "G3" in cut) if arcs else cut.startswith("G1")
         assert res.resume.at_mm == pytest.approx(where, abs=1e-3)
-        res2, point = _session(srv.port, LINES, resume_from=res.resume.seq)
+        res2, point = _session(srv.port, lines, resume_from=res.resume.seq)
     assert point.partial and point.seq == res.resume.seq
-    _assert_covers(res.ledger, res2.ledger, len(LINES))
-    _assert_ran_once(d)
+    _assert_covers(res.ledger, res2.ledger, len(lines))
+    _assert_ran_once(d, lines)
 
 
 def test_lines_grbl_ran_past_a_rejected_line_are_reported_and_fail_the_ledger():
