@@ -61,18 +61,12 @@ def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
     return _run(text.removeprefix("\ufeff").split("\n"), file, setup, all_errors)
 
 
-def _file_lines(path) -> Iterator[str]:
-    """The file's lines, split at "\n" only (as parse_text does); undecodable bytes replaced."""
-    with open(path, "rb") as f:
-        first = f.readline()
-        if first:
-            yield first.removeprefix(b"\xef\xbb\xbf").decode("utf-8", "replace")   # BOM: no text
-        for raw in f:
-            yield raw.decode("utf-8", "replace")
-
-
 def parse_file(path, *, setup: Setup | None = None, all_errors: bool = False) -> Program:
-    return _run(_file_lines(path), str(path), setup, all_errors)
+    """parse_text of the file's UTF-8 text (undecodable bytes replaced; a BOM is no text).
+    The whole Program is returned at once, so the file is read at once; iter_entities streams."""
+    with open(path, "rb") as f:
+        text = f.read().decode("utf-8", "replace")
+    return parse_text(text, str(path), setup=setup, all_errors=all_errors)
 
 
 def iter_entities(lines: Iterable[str], file: str = "<string>", *,
@@ -86,6 +80,8 @@ def iter_entities(lines: Iterable[str], file: str = "<string>", *,
         chunk = list(islice(it, _CHUNK_LINES))
         if not chunk:
             break
+        if n == 0:
+            chunk[0] = chunk[0].removeprefix("\ufeff")
         n = interp.run(chunk, n + 1)
         yield from out
         out.clear()
