@@ -185,7 +185,8 @@ def test_dropped_connection_reports_last_ack_and_resume_checks_position():
         res, _ = _session(srv.port, LINES)
         assert res.fault.kind == "disconnected" and res.resume is None
         last = res.ledger.last_acknowledged
-        assert f"last acknowledged stream line {last}" in res.fault.message
+        src = next(l.source_line for l in LINES if l.seq == last)
+        assert f"last acknowledged stream line {last} (program line {src})" in res.fault.message
         assert res.ledger.last_sent > last  # lines in flight when the port closed
         res2, point = _session(srv.port, LINES, resume_from=last + 1)
     assert point.seq >= last + 1  # grbl ran lines whose answers were lost: not sent again

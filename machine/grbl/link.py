@@ -283,19 +283,21 @@ class GrblLink:
                 if time.monotonic() - self._last_rx > self.stall_timeout_s:
                     result.fault = Fault("stalled", f"grbl stopped answering for {self.stall_timeout_s:g} s",
                                          0, 0)
-                    self._lost(result)
+                    self._lost(result, recent)
                     return result
         except (serial.SerialException, OSError) as exc:
             result.fault = Fault("disconnected", f"the port closed: {exc}", 0, 0)
-            self._lost(result)
+            self._lost(result, recent)
             return result
 
-    def _lost(self, result: StreamResult) -> None:
+    def _lost(self, result: StreamResult, recent: deque[StreamLine]) -> None:
         ledger = result.ledger
         ledger.connection_lost = True
         last = ledger.last_acknowledged
         result.fault.seq = last
-        result.fault.message += (f"; last acknowledged stream line {last}; lines {last + 1}..{ledger.last_sent} "
+        result.fault.source_line = next((l.source_line for l in recent if l.seq == last), 0)
+        result.fault.message += (f"; last acknowledged stream line {last} (program line "
+                                 f"{result.fault.source_line}); lines {last + 1}..{ledger.last_sent} "
                                  f"were sent without an answer. Reconnect and resume with "
                                  f"--resume-from {last + 1}: vcnc checks where the machine stands first.")
 
