@@ -7,7 +7,10 @@ NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.plan_periods`): t
 per-period path is merged into G1 segments within `merge_tol_mm` of the period
 points, and each segment carries the IPO's planned feed (the mean of the planned path
 speed over its periods), so grbl runs the curve at the speed vcnc planned.
-Numbers have 4 decimals in mm, feeds in mm/min.
+Numbers have 4 decimals in mm, feeds in mm/min. Positions are vcnc's (the program's,
+with the machine file's work offsets and tool lengths applied); grbl reads them in its
+own active work coordinate system, so with the default machine file (no offsets) the
+part sits where grbl's G54 zero is.
 
 Lines are numbered 1.. in stream order (`seq`); `source_line` is the program line.
 Numbering is deterministic, so a resumed stream regenerates the same lines.
