@@ -1,0 +1,147 @@
+"""Program -> program conversion: G01 runs become G06.2 groups that start and end exactly where the
+runs did and stay within tolerance of them; everything else passes through unchanged."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from ipr import Setup, parse_text
+from ipr.entities import GCodeError, Line, Nurbs
+from ipo.nurbs import curve_points
+from machine.convert import convert_text, count_blocks
+
+
+def _ellipse_run(n=120, a=12.0, b=5.0, z=-1.0, digits=4, scale=1.0, sweep=np.pi):
+    t = np.linspace(0, sweep, n + 1)
+    pts = np.c_[a * np.cos(t), b * np.sin(t), z + 0.3 * np.sin(2 * t)] / scale
+    return pts, [f"X{x:.{digits}f} Y{y:.{digits}f} Z{zz:.{digits}f}" for x, y, zz in pts]
+
+
+def _program(words, head=("G21 G90 G17",), extra_after=("G2 X-12 Y-6 I0 J-3",)):
+    first = words[0]
+    return "\n".join([*head, "(a comment that must survive)", "S12500 M3", f"G0 {first}",
+                      f"G1 {words[1]} F3000", *words[2:], *extra_after, "G0 Z5", "M5", "M2", ""])
+
+
+def _polyline_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    t = np.clip(np.einsum("psd,sd->ps", points[:, None] - a[None], ab) / np.einsum("sd,sd->s", ab, ab), 0, 1)
+    return np.linalg.norm(points[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+
+
+def _check_round_trip(src: str, out: str, tol_mm: float, setup=None):
+    before = parse_text(src, setup=setup).entities
+    after = parse_text(out, setup=setup).entities
+    lines_before = [e for e in before if isinstance(e, Line)]
+    nurbs = [e for e in after if isinstance(e, Nurbs)]
+    assert nurbs, "the run should have been fitted"
+    poly = np.array([lines_before[0].start] + [e.end for e in lines_before])
+    for nb in nurbs:
+        curve = curve_points(nb.degree, nb.knots, nb.weights, nb.points, np.linspace(nb.knots[0], nb.knots[-1], 3001))
+        assert _polyline_distance(curve, poly).max() <= tol_mm * 1.0001
+        # starts and ends exactly on a vertex of the G01 path
+        for end in (nb.start, nb.end):
+            assert np.min(np.linalg.norm(poly - np.array(end), axis=1)) < 1e-9
+    # the fitted path is continuous and has the same two ends; everything that is not a G01 move is unchanged
+    path_after = [e for e in after if isinstance(e, (Line, Nurbs))]
+    assert path_after[0].start == lines_before[0].start
+    assert np.allclose(path_after[-1].end, lines_before[-1].end, atol=1e-9, rtol=0)
+    for a, b in zip(path_after, path_after[1:]):
+        assert np.allclose(a.end, b.start, atol=1e-9, rtol=0)
+    others_before = [e for e in before if not isinstance(e, (Line, Nurbs))]
+    others_after = [e for e in after if not isinstance(e, (Line, Nurbs))]
+    assert [type(e) for e in others_before] == [type(e) for e in others_after]
+    for e0, e1 in zip(others_before, others_after):
+        for attr in ("start", "end", "center", "rpm"):
+            if hasattr(e0, attr):
+                assert np.allclose(getattr(e0, attr), getattr(e1, attr), atol=1e-9, rtol=0)
+    return before, after
+
+
+@pytest.mark.parametrize("tol_mm", [0.001, 0.01])
+def test_ellipse_run_becomes_g06_2_within_tolerance(tol_mm):
+    pts, words = _ellipse_run()
+    src = _program(words)
+    out, rep = convert_text(src, tol_mm)
+    before, after = _check_round_trip(src, out, tol_mm)
+    assert rep.groups >= 1 and rep.max_deviation_mm <= tol_mm
+    assert rep.blocks_after < rep.blocks_before / 2
+    assert rep.blocks_before == count_blocks(src) and rep.blocks_after == count_blocks(out)
+    # the run's last vertex is reproduced exactly (same number, same float)
+    last_line = [e for e in before if isinstance(e, Line)][-1]
+    last_nurbs = [e for e in after if isinstance(e, Nurbs)][-1]
+    assert last_nurbs.end == last_line.end
+    # the comment and the non-G01 lines pass through as text
+    for keep in ("(a comment that must survive)", "S12500 M3", "G2 X-12 Y-6 I0 J-3", "G0 Z5", "M2"):
+        assert keep in out.split("\n")
+    assert "G06.2 P4" in out
+
+
+def test_inch_incremental_program_with_work_offset():
+    pts, _ = _ellipse_run(scale=25.4, digits=5)
+    inc = np.diff(pts, axis=0)
+    words = [f"X{pts[0, 0]:.5f} Y{pts[0, 1]:.5f} Z{pts[0, 2]:.5f}"]
+    words += [f"X{dx:.5f} Y{dy:.5f} Z{dz:.5f}" for dx, dy, dz in inc]
+    head = ("G20 G17 G55",)
+    src = "\n".join([*head, f"G0 {words[0]}", "G91", f"G1 {words[1]} F100", *words[2:], "G90", "G0 Z0.2", "M2", ""])
+    setup = Setup(work_offsets_mm={"G55": (100.0, -50.0, 10.0)})
+    out, rep = convert_text(src, 0.005, setup=setup)
+    assert rep.groups >= 1
+    before, after = _check_round_trip(src, out, 0.005, setup=setup)
+    end_before = [e for e in before if isinstance(e, Line)][-1].end
+    end_after = [e for e in after if isinstance(e, Nurbs)][-1].end
+    assert np.allclose(end_after, end_before, atol=1e-9, rtol=0)
+    assert out.count("G06.2") == rep.groups
+
+
+def test_modal_g1_after_a_group_is_restored():
+    _, words = _ellipse_run()
+    # after the run, a sharp corner and more modal G1 moves that were not fitted
+    src = "\n".join(["G21 G90", f"G0 {words[0]}", f"G1 {words[1]} F3000", *words[2:],
+                     "X-20 Y-20 Z-1", "X-30 Y-20 Z-1", "M2", ""])
+    out, rep = convert_text(src, 0.01)
+    after = parse_text(out).entities
+    lines_after = [e for e in after if isinstance(e, Line)]
+    assert [e.end for e in lines_after][-2:] == [(-20.0, -20.0, -1.0), (-30.0, -20.0, -1.0)]
+
+
+def test_short_runs_and_other_blocks_stay_unchanged():
+    src = "G21 G90\nG0 X0 Y0 Z0\nG1 X1 F100\nX2 Y0.1\nX3 Y0.3\n#1=2\nG1 X[#1*2] Y1\nG2 X6 Y1 I1 J0\nM2\n"
+    out, rep = convert_text(src, 0.01)
+    assert out == src
+    assert rep.groups == 0 and rep.runs == 1 and rep.short_runs == 1
+
+
+def test_runs_break_at_feed_changes_and_corners():
+    _, words = _ellipse_run(n=60)
+    src = "\n".join(["G21 G90", f"G0 {words[0]}", f"G1 {words[1]} F3000", *words[2:30],
+                     f"{words[30]} F2000", *words[31:], "M2", ""])
+    out, rep = convert_text(src, 0.01)
+    after = parse_text(out).entities
+    feeds = sorted({round(e.feed_mm_s * 60) for e in after if isinstance(e, Nurbs)})
+    assert rep.runs == 2 and feeds == [2000, 3000]
+
+
+def test_bad_input():
+    with pytest.raises(ValueError):
+        convert_text("G1 X1 F100\n", 0.0)
+    with pytest.raises(ValueError):
+        convert_text("G1 X1 F100\n", 0.01, degree=7)
+    with pytest.raises(GCodeError):
+        convert_text("G1 X1 F100\nG41 X2\n", 0.01)
+
+
+def test_vcnc_fit_command(tmp_path):
+    from machine.cli import main
+
+    _, words = _ellipse_run()
+    src = tmp_path / "in.nc"
+    src.write_text(_program(words))
+    dst = tmp_path / "out.nc"
+    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01"])
+    assert res.exit_code == 0, res.output
+    assert "blocks" in res.output and "max deviation" in res.output and "fit time" in res.output
+    parse_text(dst.read_text())
+    bad = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "-1"])
+    assert bad.exit_code != 0
