@@ -5,7 +5,8 @@ parameter updates (recursive 000 §2.2, Taylor 002 eq. 7, constant du 000 Fig. 7
 NURBS stepper follows ipo/period.py: one compiled call fills the arrays of a whole chunk
 of periods. Every curve evaluation is counted in `Steps.evals`, the output point and the
 start-up included (a Taylor evaluation includes the two derivatives); `startup_evals` is
-the part spent by the first moving period.
+the part spent by the start-up (the first moving period, or the first ones should they be
+too short to measure du/ds from).
 """
 from __future__ import annotations
 
@@ -26,8 +27,8 @@ _RECURSIVE, _TAYLOR1, _TAYLOR2, _CONSTANT_DU = range(4)
 # float state: u, P(u), last two steps (du, chord), pending lead, P' and P'' at u (Taylor)
 _U, _PX, _PY, _PZ, _G1, _S1, _G2, _S2, _LEAD = range(9)
 _NST = 9
-# int state: span hint, started
-_SPAN, _STARTED = range(2)
+# int state: span hint, started (du/ds known), evaluations spent on the start-up
+_SPAN, _STARTED, _STARTUP_EVALS = range(3)
 
 _LEAD_NOISE_MM = 1e-9  # a first step shorter than the lead by less than this is float noise
 # Chords below this are too close to float resolution to learn du/ds from (steps near a stop)
@@ -37,8 +38,7 @@ _RATIO_MIN_MM = 1e-9
 @njit(cache=True)
 def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st, ist, der,
           n1, m1, start_tol, chord_tol, max_evals, du, pos, uo, evo):
-    """Step through `steps`; returns (periods, done, carry_mm, startup_evals)."""
-    startup_evals = 0
+    """Step through `steps`; returns (periods, done, carry_mm)."""
     for j in range(steps.shape[0]):
         d = steps[j]
         if st[_LEAD] > 0.0:
@@ -56,7 +56,7 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
             pos[j, 0], pos[j, 1], pos[j, 2] = end[0], end[1], end[2]
             uo[j] = u_max
             evo[j] = 0
-            return j + 1, True, d, startup_evals
+            return j + 1, True, d
         started = ist[_STARTED] == 1
         span = ist[_SPAN]
         extra = 0
@@ -80,7 +80,7 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
             if not started:
                 poly_derivs2(breaks, inv_h, coef, span, u, der)
                 extra = 1
-            fallback = eq9(d, st[_G1], st[_S1]) if started else d * (u_max - u_min) / polygon_mm
+            fallback = eq9(d, st[_G1], st[_S1]) if st[_S1] > 0.0 else d * (u_max - u_min) / polygon_mm
             res = taylor_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, der,
                               1 if method == _TAYLOR1 else 2, fallback)
         g, x, y, z, s, evals, at_end, span = res
@@ -88,14 +88,15 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
         evals += extra
         ist[_SPAN] = span
         if not started:
-            ist[_STARTED] = 1
-            startup_evals = evals
+            ist[_STARTUP_EVALS] += evals
+            # a first step too short to measure leaves the start-up to the next one
+            ist[_STARTED] = 1 if (method != _RECURSIVE or s > _RATIO_MIN_MM or at_end) else 0
         evo[j] = evals
         if at_end:
             pos[j, 0], pos[j, 1], pos[j, 2] = end[0], end[1], end[2]
             uo[j] = u_max
             st[_U] = u_max
-            return j + 1, True, max(d - s, 0.0), startup_evals
+            return j + 1, True, max(d - s, 0.0)
         pos[j, 0], pos[j, 1], pos[j, 2] = x, y, z
         uo[j] = u + g
         st[_U] = u + g
@@ -106,7 +107,7 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
         elif d > _RATIO_MIN_MM:  # no motion: the curve stands still here; twice the increment next time
             st[_G1], st[_S1] = 2.0 * g, d
             st[_S2] = 0.0
-    return steps.shape[0], False, 0.0, startup_evals
+    return steps.shape[0], False, 0.0
 
 
 def _check_curve(e: Nurbs) -> None:
@@ -171,10 +172,14 @@ class NurbsStepper:
         self._st[_PX:_PZ + 1] = points[0]
         self._st[_LEAD] = float(lead_mm)
         self._lead_check = float(lead_mm)
-        self._ist = np.zeros(2, dtype=np.int64)
+        self._ist = np.zeros(3, dtype=np.int64)
         self._der = np.zeros((3, 3))
         self.done = False
-        self.startup_evals = 0
+
+    @property
+    def startup_evals(self) -> int:
+        """Curve evaluations spent by the start-up (000 eq. 10-14 or §2.2.1), output point included."""
+        return int(self._ist[_STARTUP_EVALS])
 
     def advance(self, steps_mm: np.ndarray) -> Steps:
         if self.done:
@@ -192,12 +197,9 @@ class NurbsStepper:
         pos = np.empty((n, 3))
         u = np.empty(n)
         evals = np.empty(n, dtype=np.int64)
-        started = self._ist[_STARTED]
-        k, done, carry, startup = _walk(self._method, self._breaks, self._inv_h, self._coef, self._end,
+        k, done, carry = _walk(self._method, self._breaks, self._inv_h, self._coef, self._end,
                                         self._u_min, self._u_max, self._polygon_mm, steps, self._st,
                                         self._ist, self._der, *self._params, pos, u, evals)
-        if not started and self._ist[_STARTED]:
-            self.startup_evals = int(startup)
         self.done = bool(done)
         return Steps(pos[:k], u[:k], evals[:k], self.done, float(carry))
 

@@ -203,6 +203,17 @@ def test_braking_to_a_stop_and_restarting(kw):
     np.testing.assert_allclose(c[big], steps[big], rtol=0.05)
 
 
+@pytest.mark.parametrize("method", METHODS)
+def test_first_step_below_float_resolution_then_normal_steps(method):
+    s = make_stepper(WAVY, method=method, lead_mm=0.1)
+    r = s.advance(np.r_[0.1 + 1e-13, 1e-14, np.full(30, 0.1)])
+    assert np.all(np.diff(r.u) >= 0) and r.u[-1] > r.u[2]
+    c = chords(WAVY, r.pos_mm)
+    if method == "recursive":
+        np.testing.assert_allclose(c[2:], 0.1, rtol=2e-3)
+        assert s.startup_evals >= 3
+
+
 def test_end_clamp_and_carry():
     e = WAVY
     s, pos, u, ev, carry = run(e, 0.25, chord_tol_pct=0.01)
