@@ -9,6 +9,12 @@ further steps follow for the same point, so each axis ends within 0.5 BLU of eve
 A difference of exactly -0.5 BLU does not step (the paper's rule reads >= 0.5 both ways):
 otherwise a point exactly halfway would make the axis chatter +1, -1, +1 ... for ever;
 so the lag stays in [-0.5, +0.5), rounding half up.
+
+The paper's "within 0.5 BLU" holds per axis at every curve point. The distance of the
+pulse path from the curve is the length of the per-axis lag vector's component normal to
+the curve, bounded by 0.5*sqrt(2) BLU in a plane and 0.5*sqrt(3) BLU in space, and it does
+exceed 0.5 BLU: measured 0.69 BLU on a 1 mm circle (over 6 % of the vertices above 0.5)
+and 0.81 BLU on a 3-D NURBS at BLU = 1 um (tests/test_reference_output.py).
 """
 from __future__ import annotations
 

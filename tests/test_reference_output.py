@@ -142,8 +142,8 @@ def test_pulses_on_circle(radius_mm):
     # distance from the circle, analytic: | |p| - R | at the path's vertices ...
     r_blu = radius_mm / BLU_MM
     vertex_dev = np.abs(np.hypot(path[:, 0], path[:, 1]) - r_blu).max()
-    # ... and brute force along each step (1000 samples per unit step)
-    t = np.linspace(0, 1, 1001)[:, None, None]
+    # ... and brute force along each step (200 samples per step)
+    t = np.linspace(0, 1, 201)[:, None, None]
     along = path[:-1][None] + t * (path[1:] - path[:-1])[None]
     seg_dev = np.abs(np.hypot(along[..., 0], along[..., 1]) - r_blu).max()
     th = np.linspace(0, 2 * np.pi, int(2 * np.pi * r_blu * 10) + 1)  # 0.1 BLU apart
