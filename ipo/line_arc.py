@@ -236,13 +236,14 @@ class ArcStepper:
         if not isinstance(entity, Arc):
             raise TypeError(f"ArcStepper needs an Arc, got {type(entity).__name__}")
         a, b, n = PLANE_AXES[entity.plane]
-        start = np.array(entity.start, dtype=np.float64)
-        self._end = np.array(entity.end, dtype=np.float64)
-        centre = np.array(entity.center, dtype=np.float64)
-        if not (np.isfinite(start).all() and np.isfinite(self._end).all() and np.isfinite(centre).all()):
+        start = tuple(map(float, entity.start))
+        end = tuple(map(float, entity.end))
+        centre = tuple(map(float, entity.center))
+        if not all(map(isfinite, start + end + centre)):
             raise ValueError(f"line {entity.line}: non-finite arc start, end or centre")
+        self._end = np.array(end)
         r0 = entity.radius_mm
-        r1 = hypot(self._end[a] - centre[a], self._end[b] - centre[b])
+        r1 = hypot(end[a] - centre[a], end[b] - centre[b])
         if not r0 > 0.0:
             raise ValueError(f"line {entity.line}: arc radius is zero (start point on the centre)")
         sweep = entity.sweep_rad
@@ -250,7 +251,7 @@ class ArcStepper:
         self._g = np.array([
             centre[a], centre[b], start[n],
             atan2(start[b] - centre[b], start[a] - centre[a]), 1.0 if sweep > 0 else -1.0,
-            r0, (r1 - r0) / theta, (self._end[n] - start[n]) / theta, theta,
+            r0, (r1 - r0) / theta, (end[n] - start[n]) / theta, theta,
         ])
         self._axes = (a, b, n)
         self.radius_mm = r0
