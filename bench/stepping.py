@@ -6,8 +6,8 @@ plain vectorised numpy reference computed in the same run.
 Period 1 ms at 50 mm/s: a 0.05 mm step. Chunks of 4096 periods (the feed stage's batch).
 - long line: one 12.5 m Line, 250,000 periods;
 - long helix: R = 10 mm, 199 full turns + a half, 2 mm rise per turn, ~250,000 periods;
-- short blocks: 20,000 Lines of 0.5 mm (10 periods each), a stepper built per block, as
-  a CAM program of short G1 moves drives it.
+- short blocks: 20,000 Lines of 0.5 mm (10 periods each), and 20,000 Arcs of 0.5 rad on
+  R = 1 mm, a stepper built per block, as a CAM program of short G1/G2 moves drives it.
 The numpy references compute the same points without the stepper contract (no end check,
 lead or carry): the line as start + unit * cumsum(steps), the helix with the closed-form
 angle per chord 2*asin(d / 2R) corrected for the pitch by one fixed-point pass. Rates are per
@@ -81,28 +81,41 @@ def numpy_helix() -> int:
     return n_total
 
 
-SHORT = [Line(i, (0.5 * i, 0.0, 0.0), (0.5 * i + 0.5, 0.0, 0.0), 50.0) for i in range(20000)]
+SHORT_LINES = [Line(i, (0.5 * i, 0.0, 0.0), (0.5 * i + 0.5, 0.0, 0.0), 50.0) for i in range(20000)]
+SHORT_ARCS = [Arc(i, (1.0, 0.0, 0.0), (np.cos(0.5), np.sin(0.5), 0.0), (0.0, 0.0, 0.0), "XY", True, 50.0)
+              for i in range(20000)]
 
 
-def short_blocks() -> int:
+def short_blocks(entities, stepper_cls) -> int:
+    """One stepper per block, chained by lead = step - carry as the feed stage does."""
     steps = np.full(16, STEP_MM)
     n = 0
     lead = 0.0
-    for line in SHORT:
-        st = LineStepper(line, lead_mm=lead)
-        r = st.advance(steps)
+    for e in entities:
+        r = stepper_cls(e, lead_mm=lead).advance(steps)
         n += len(r.u)
         lead = STEP_MM - r.carry_mm
     return n
 
 
-def numpy_short_blocks() -> int:
+def numpy_short_lines() -> int:
     n = 0
-    for line in SHORT:
+    for line in SHORT_LINES:
         start, end = np.array(line.start), np.array(line.end)
         length = np.linalg.norm(end - start)
         cum = np.cumsum(np.full(int(np.ceil(length / STEP_MM)), STEP_MM))
         pos = start + (end - start) / length * np.minimum(cum, length)[:, None]
+        n += len(pos)
+    return n
+
+
+def numpy_short_arcs() -> int:
+    n = 0
+    for arc in SHORT_ARCS:
+        r = arc.radius_mm
+        phi = 2 * np.arcsin(STEP_MM / (2 * r))
+        th = np.minimum(np.cumsum(np.full(int(np.ceil(abs(arc.sweep_rad) / phi)), phi)), arc.sweep_rad)
+        pos = np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)])
         n += len(pos)
     return n
 
@@ -116,7 +129,8 @@ def main() -> None:
     cases = [
         ("long line", lambda: run_stepper(LineStepper(LINE)), numpy_line),
         ("long helix", lambda: run_stepper(ArcStepper(HELIX)), numpy_helix),
-        ("short lines (0.5 mm)", short_blocks, numpy_short_blocks),
+        ("short lines (0.5 mm)", lambda: short_blocks(SHORT_LINES, LineStepper), numpy_short_lines),
+        ("short arcs (0.5 mm)", lambda: short_blocks(SHORT_ARCS, ArcStepper), numpy_short_arcs),
     ]
     print(f"step {STEP_MM} mm (50 mm/s, 1 ms), chunks of {CHUNK}, best of {args.repeats}")
     print(f"{'case':22s} {'periods':>8s} {'vcnc Mper/s cpu (wall)':>24s} "
