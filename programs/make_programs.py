@@ -6,7 +6,7 @@
 - finish_g01.nc: ball-end finishing (r = 3 mm, pick feed 0.2 mm, F5000, S12500, two flutes) of the
   analytic surface z = 5 exp(-((x-10)^2 + (y-10)^2) / 40) + 0.05 x over a 20 x 20 mm patch, raster
   passes along X (zig-zag), chords within 1 um of the exact tool-tip path: our version of 002 Fig. 7;
-- finish_nurbs.nc: finish_g01.nc with its G01 runs fitted by `vcnc fit` at 1 um (002 Fig. 8).
+- finish_nurbs.nc: finish_g01.nc with its G01 runs fitted by `vcnc fit` at 5 um (002 Fig. 8).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ BALL_R_MM = 3.0
 PICK_MM = 0.2
 CHORD_TOL_MM = 0.001
 PATCH_MM = 20.0
-FIT_TOL_MM = 0.001
+FIT_TOL_MM = 0.005
 
 
 def surface(x, y):

@@ -1,0 +1,158 @@
+"""Benchmark of issue 7: G01 runs -> G06.2 with 001's rational B-spline fit.
+
+    python bench/fit.py [--quick]
+
+Prints, for three corpus programs and the finishing program at T = 1 um and 10 um:
+blocks and bytes before/after and their ratios, the largest deviation, the fit time
+and how many pieces stayed G01; then the control points needed to reach T with the
+rational fit, the same fit without weights, and geomdl's non-rational
+`fitting.approximate_curve`, on circular arcs, an ellipse and corpus runs (same run);
+then `vcnc compare` on finish_g01.nc against finish_nurbs.nc.
+g1_stellabee1.ngc (169,220 lines) is benchmarked on its first STELLA_LINES lines: a
+deterministic part, because the whole file takes too long to fit on this machine.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+CORPUS = ROOT.parent / "shared" / "corpus" / "linuxcnc"
+STELLA_LINES = 6000
+TOLS_MM = (0.001, 0.01)
+
+from ipo.fit_tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
+from ipo.g01_runs import run_vertices, split_runs  # noqa: E402
+from ipr import parse_text  # noqa: E402
+from machine.convert import convert_text  # noqa: E402
+
+
+def programs(quick: bool) -> list[tuple[str, str]]:
+    out = []
+    for name in ("g1_lhchips4.ngc", "g1_3d_chips.ngc", "g1_stellabee1.ngc"):
+        path = CORPUS / name
+        if not path.exists():
+            print(f"  {name}: not found in {CORPUS}, skipped")
+            continue
+        text = path.read_bytes().decode("utf-8", "replace")
+        if name == "g1_stellabee1.ngc":
+            keep = 1500 if quick else STELLA_LINES
+            text = "\n".join(text.split("\n")[:keep]) + "\nM2\n"
+            name = f"{name} (first {keep} lines)"
+        out.append((name, text))
+    finish = ROOT / "programs" / "finish_g01.nc"
+    out.append(("programs/finish_g01.nc", finish.read_text()))
+    return out
+
+
+def conversion_table(quick: bool) -> None:
+    print("\n== G01 runs -> G06.2 (degree 3), per program and tolerance")
+    head = (f"{'program':42s} {'T um':>5s} {'blocks':>15s} {'x':>6s} {'bytes':>17s} {'x':>6s} "
+            f"{'groups':>6s} {'kept':>5s} {'max dev um':>10s} {'fit s':>7s}")
+    print(head)
+    for name, text in programs(quick):
+        for tol in TOLS_MM:
+            out, rep = convert_text(text, tol, file=name)
+            parse_text(out)  # the output must be a valid program
+            print(f"{name:42s} {tol * 1e3:5.0f} {rep.blocks_before:>7d}->{rep.blocks_after:<7d} "
+                  f"{rep.blocks_before / rep.blocks_after:6.2f} {rep.bytes_before:>8d}->{rep.bytes_after:<8d} "
+                  f"{rep.bytes_before / rep.bytes_after:6.2f} {rep.groups:6d} {len(rep.kept_g01):5d} "
+                  f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:7.1f}")
+            assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
+
+
+def _geomdl_min_ctrl(q: np.ndarray, tol_mm: float, m_max: int) -> int | None:
+    """Fewest control points for which geomdl's approximate_curve (cubic) is within tol of the
+    polyline both ways (dense samples, exact segment distances); bisection after doubling."""
+    from geomdl import fitting
+
+    def ok(m):
+        curve = fitting.approximate_curve(q.tolist(), 3, ctrlpts_size=m)
+        curve.sample_size = 20 * len(q)
+        return _two_way(np.array(curve.evalpts), q) <= tol_mm
+
+    lo, m = 3, 4
+    while not ok(m):
+        if m >= m_max:
+            return None
+        lo, m = m, min(2 * m, m_max)
+    hi = m
+    while hi - lo > 1:
+        mid = (hi + lo) // 2
+        hi, lo = (mid, lo) if ok(mid) else (hi, mid)
+    return hi
+
+
+def _two_way(curve_pts: np.ndarray, q: np.ndarray) -> float:
+    def to_poly(p, poly):
+        a, ab = poly[:-1], np.diff(poly, axis=0)
+        len2 = np.maximum(np.einsum("sd,sd->s", ab, ab), 1e-300)
+        out = []
+        for chunk in np.array_split(p, max(1, len(p) // 256)):
+            t = np.clip(np.einsum("psd,sd->ps", chunk[:, None] - a[None], ab) / len2, 0, 1)
+            out.append(np.linalg.norm(chunk[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(1))
+        return np.concatenate(out)
+    seg = q[:-1, None] + np.linspace(0, 1, 9)[None, :, None] * np.diff(q, axis=0)[:, None]
+    return float(max(to_poly(curve_pts, q).max(), to_poly(seg.reshape(-1, 3), curve_pts).max()))
+
+
+def rational_table(quick: bool) -> None:
+    print("\n== control points to reach T: 001 rational fit vs the same fit without weights vs geomdl"
+          " approximate_curve (cubic, non-rational)")
+    def arc(r, a0, a1, n):
+        t = np.linspace(a0, a1, n)
+        return np.c_[r * np.cos(t), r * np.sin(t), np.zeros(n)]
+    t = np.linspace(0, np.pi, 200)
+    cases = [("quarter circle R10, 120 pts", arc(10, 0, np.pi / 2, 120), 0.001),
+             ("semicircle R10, 200 pts", arc(10, 0, np.pi, 200), 0.001),
+             ("3/4 circle R5, 200 pts", arc(5, 0, 1.5 * np.pi, 200), 0.001),
+             ("half ellipse 12 x 5, 200 pts", np.c_[12 * np.cos(t), 5 * np.sin(t), np.zeros(200)], 0.001)]
+    lh = CORPUS / "g1_lhchips4.ngc"
+    if lh.exists():
+        runs = split_runs(parse_text(lh.read_text()).entities)
+        longest = sorted(runs, key=len, reverse=True)[: (1 if quick else 3)]
+        for r in longest:
+            cases.append((f"lhchips4 run at line {r[0].line}, {len(r)} moves", densify(run_vertices(r)), 0.01))
+    print(f"{'data':40s} {'T um':>5s} {'rational':>9s} {'no weights':>11s} {'geomdl':>7s} {'s':>6s}")
+    for name, q, tol in cases:
+        t0 = time.perf_counter()
+        m_max = min(len(q) - 1, 60)
+        rat = fewest_ctrl(q, FitSettings(tol), m_max)
+        plain = fewest_ctrl(q, FitSettings(tol, rational=False), m_max)
+        geo = _geomdl_min_ctrl(q, tol, m_max)
+        show = [str(len(f.points)) if f is not None else f">{m_max}" for f in (rat, plain)]
+        print(f"{name:40s} {tol * 1e3:5.0f} {show[0]:>9s} {show[1]:>11s} {geo if geo else f'>{m_max}':>7} "
+              f"{time.perf_counter() - t0:6.1f}")
+
+
+def compare_table() -> None:
+    print("\n== vcnc compare programs/finish_g01.nc programs/finish_nurbs.nc --machine programs/machine.toml")
+    try:
+        from machine.commands.compare import compare_programs, format_table
+    except ImportError as err:
+        print(f"  compare not available: {err}")
+        return
+    res = compare_programs(ROOT / "programs" / "finish_g01.nc", ROOT / "programs" / "finish_nurbs.nc",
+                           ROOT / "programs" / "machine.toml")
+    print(format_table(res))
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    t0 = time.perf_counter()
+    conversion_table(quick)
+    rational_table(quick)
+    compare_table()
+    print(f"\nbench total {time.perf_counter() - t0:.0f} s")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,211 @@
+"""`vcnc compare A.nc B.nc [--machine M.toml] [--plot OUT.png] [--json]`: G01 against NURBS.
+
+Runs both programs through the same virtual controller and prints them side by
+side (002 Table 1): blocks, bytes, machining time, mean and minimum feed, feed
+fluctuation, slow-downs below 50 % of F, the largest distance between the two
+paths both ways, the largest realised chord error, and, where the machine file has
+a finishing section, 002's feed-direction roughness R_max (max, mean) of the cut.
+
+Feed figures cover the cutting periods (feed moves, not rapids, not standing still);
+the minimum leaves out the first and last millimetre of cutting (the start-up and
+the final stop). The path distance is measured between the commanded positions of
+every period, each point against the other path's polyline near the same arc length.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import click  # noqa: E402
+import numpy as np  # noqa: E402
+
+ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
+        ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
+        ("feed fluctuation (std/mean)", "feed_fluctuation_pct", "{:.2f} %"),
+        ("slow-downs below 50 % of F", "slowdowns", "{:d}"),
+        ("largest distance to the other path", "path_distance_um", "{:.3f} um"),
+        ("max realised chord error", "max_chord_error_um", "{:.3f} um"),
+        ("roughness R_max max", "rmax_max_um", "{:.3f} um"), ("roughness R_max mean", "rmax_mean_um", "{:.3f} um")]
+SLOW_FRACTION = 0.5
+MIN_FEED_SKIP_MM = 1.0
+WINDOW_MM = 2.0
+
+
+def _run(path: Path, config):
+    from ipr.entities import Arc, Line, Nurbs, Spindle
+    from machine.controller import Controller
+    from machine.convert import count_blocks
+    from machine.trace import MemoryTrace
+
+    sink = MemoryTrace({})
+    ctl = Controller(config, sinks=[sink])
+    program = ctl.check(path)
+    result = ctl.run(program)
+    if result.state != "completed":
+        raise click.ClickException(f"{path}: the run ended {result.state}: {result.fault or ''}")
+    trace = sink.close()
+    feed_lines = {e.line: e.feed_mm_s for e in program.entities if isinstance(e, (Line, Arc, Nurbs))}
+    rpm = max((e.rpm for e in program.entities if isinstance(e, Spindle) and e.direction), default=0.0)
+    text = path.read_bytes()
+    return {"blocks": count_blocks(text.decode("utf-8", "replace")), "bytes": len(text),
+            "time_s": float(result.cycle_time_s), "max_chord_error_um": float(result.max_chord_error_um),
+            "trace": trace, "feed_lines": feed_lines, "rpm": rpm}
+
+
+def _cut_periods(run: dict):
+    """Indices of cutting periods, the planned path speed (mm/s: the commanded positions move in
+    whole BLU, too coarse to differentiate per period), the programmed F and each period's step."""
+    tr = run["trace"]
+    pos = tr["pos_mm"]
+    step = np.linalg.norm(np.diff(np.vstack([pos[:1], pos]), axis=0), axis=1)
+    feed_of_line = run["feed_lines"]
+    prog = np.array([feed_of_line.get(int(n), np.nan) for n in tr["line"]])
+    speed = np.asarray(tr["feed_mm_s"], dtype=float)
+    cut = np.isfinite(prog) & (speed > 0)
+    return np.flatnonzero(cut), speed, prog, step
+
+
+def _feed_figures(run: dict) -> dict:
+    idx, speed, prog, step = _cut_periods(run)
+    if len(idx) == 0:
+        raise click.ClickException("the program has no feed moves to compare")
+    s_cut = np.cumsum(step[idx])
+    inner = idx[(s_cut > MIN_FEED_SKIP_MM) & (s_cut < s_cut[-1] - MIN_FEED_SKIP_MM)]
+    v = speed[idx]
+    slow = speed[idx] < SLOW_FRACTION * prog[idx]
+    contiguous = np.diff(idx) == 1
+    episodes = int(slow[0]) + int(np.sum(slow[1:] & ~(slow[:-1] & contiguous)))
+    return {"mean_feed_mm_min": float(v.mean() * 60), "feed_fluctuation_pct": float(v.std() / v.mean() * 100),
+            "min_feed_mm_min": float(speed[inner].min() * 60) if len(inner) else float(v.min() * 60),
+            "slowdowns": episodes}
+
+
+def _roughness(run: dict, config) -> dict:
+    from ipo.roughness import inclination_rad, rmax_mm
+
+    fin = config.finishing
+    if fin is None:
+        return {"rmax_max_um": None, "rmax_mean_um": None}
+    tool = config.tools[fin.tool]
+    r_mm, flutes = tool.ball_radius_mm, tool.flutes
+    if not run["rpm"] > 0:
+        raise click.ClickException("roughness needs the spindle speed: the program sets no S with M3/M4")
+    idx, speed, _, _ = _cut_periods(run)
+    pos = run["trace"]["pos_mm"]
+    tangent = pos[idx] - pos[np.maximum(idx - 1, 0)]
+    f_i = speed[idx] * 60.0 / (flutes * run["rpm"])  # feed per tooth, mm
+    r = rmax_mm(r_mm, f_i, fin.pick_feed_mm, inclination_rad(tangent))
+    return {"rmax_max_um": float(r.max() * 1e3), "rmax_mean_um": float(r.mean() * 1e3)}
+
+
+def _path_distance_um(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance from a point of a to the polyline b, each point checked against the segments
+    of b within WINDOW_MM of the same (proportional) arc length: an upper bound of the true distance."""
+    sa = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(a, axis=0), axis=1))])
+    sb = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(b, axis=0), axis=1))])
+    at = sa * (sb[-1] / max(sa[-1], 1e-300))
+    lo = np.clip(np.searchsorted(sb, at - WINDOW_MM) - 1, 0, len(b) - 2)
+    hi = np.clip(np.searchsorted(sb, at + WINDOW_MM), 1, len(b) - 1)
+    width = int((hi - lo).max())
+    best = np.full(len(a), np.inf)
+    for k in range(width):
+        j = np.minimum(lo + k, len(b) - 2)
+        p0, p1 = b[j], b[j + 1]
+        d = p1 - p0
+        len2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+        t = np.clip(np.einsum("ij,ij->i", a - p0, d) / len2, 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(a - p0 - t[:, None] * d, axis=1))
+    return float(best.max() * 1e3)
+
+
+def compare_programs(path_a, path_b, machine=None) -> dict:
+    """Both programs' figures, keyed "a" and "b" (plus "files")."""
+    from ipo.config import default_config, load_config
+
+    config = default_config() if machine is None else load_config(machine)
+    out = {"files": [str(path_a), str(path_b)], "machine": str(machine) if machine else "(default)"}
+    runs = {}
+    for key, path in (("a", Path(path_a)), ("b", Path(path_b))):
+        run = _run(path, config)
+        runs[key] = run
+        figs = {k: v for k, v in run.items() if k not in ("trace", "feed_lines", "rpm")}
+        figs.update(_feed_figures(run))
+        figs.update(_roughness(run, config))
+        out[key] = figs
+    pa, pb = runs["a"]["trace"]["pos_mm"], runs["b"]["trace"]["pos_mm"]
+    out["a"]["path_distance_um"] = _path_distance_um(pa, pb)
+    out["b"]["path_distance_um"] = _path_distance_um(pb, pa)
+    out["_runs"] = runs
+    return out
+
+
+def format_table(res: dict) -> str:
+    a, b = res["a"], res["b"]
+    name_a, name_b = (Path(f).name for f in res["files"])
+    w = max(len(name_a), len(name_b), 16)
+    lines = [f"{'':36s} {name_a:>{w}s} {name_b:>{w}s}"]
+    for label, key, fmt in ROWS:
+        cells = ["-" if x[key] is None else fmt.format(x[key]) for x in (a, b)]
+        lines.append(f"{label:36s} {cells[0]:>{w}s} {cells[1]:>{w}s}")
+    return "\n".join(lines)
+
+
+def _plot(res: dict, out: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_path, ax_feed) = plt.subplots(1, 2, figsize=(14, 5.5))
+    for key, style in (("a", "-"), ("b", "--")):
+        run = res["_runs"][key]
+        pos = run["trace"]["pos_mm"]
+        ext = np.ptp(pos, axis=0)
+        i, j = np.argsort(ext)[::-1][:2]
+        ax_path.plot(pos[:, i], pos[:, j], style, lw=0.6, label=Path(res["files"][key == "b"]).name)
+        ax_path.set_xlabel("XYZ"[i] + " mm")
+        ax_path.set_ylabel("XYZ"[j] + " mm")
+        idx, speed, _, step = _cut_periods(run)
+        s = np.cumsum(step)
+        ax_feed.plot(s[idx], speed[idx] * 60, style, lw=0.6, label=Path(res["files"][key == "b"]).name)
+    ax_path.set_title("paths (commanded positions)")
+    ax_path.set_aspect("equal", adjustable="datalim")
+    ax_feed.set_xlabel("distance along the path, mm")
+    ax_feed.set_ylabel("feed, mm/min")
+    ax_feed.set_title("feed against distance (cutting periods)")
+    for ax in (ax_path, ax_feed):
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=130)
+    plt.close(fig)
+
+
+@click.command("compare")
+@click.argument("a", type=click.Path(exists=True, dir_okay=False))
+@click.argument("b", type=click.Path(exists=True, dir_okay=False))
+@click.option("--machine", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="Machine file (TOML); the built-in default if omitted.")
+@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), default=None,
+              help="Write a PNG: the two paths overlaid and their feed against distance.")
+@click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
+def command(a: str, b: str, machine: str | None, plot_out: str | None, as_json: bool) -> None:
+    """Run two programs in the same controller and compare them (002 Table 1)."""
+    from ipo.config import ConfigError
+    from machine.controller import ProgramRejected
+
+    try:
+        res = compare_programs(a, b, machine)
+    except ProgramRejected as err:
+        raise click.ClickException(f"program rejected:\n{err}") from None
+    except ConfigError as err:
+        raise click.ClickException(f"machine file {machine}: {err}") from None
+    if plot_out:
+        _plot(res, plot_out)
+    if as_json:
+        click.echo(json.dumps({k: v for k, v in res.items() if k != "_runs"}, indent=1))
+    else:
+        click.echo(format_table(res))
+        if plot_out:
+            click.echo(f"plot: {plot_out}")
