@@ -201,3 +201,32 @@ class SocketEndpoint(_Endpoint):
                 while not self._stop.is_set() and self._pump(conn, lambda: conn.recv(65536), conn.sendall):
                     pass
         self.sock.close()
+
+
+def main(argv=None) -> None:
+    """`python -m machine.increments.receiver [--port N] [--period-s T]`: a drive to stream to
+    (`vcnc stream FILE --protocol increments --port socket://127.0.0.1:N`); prints its position."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("--port", type=int, default=5555)
+    ap.add_argument("--period-s", type=float, default=None, help="execute in real time (default: at once)")
+    ap.add_argument("--capacity", type=int, default=4096, help="buffer, in periods")
+    args = ap.parse_args(argv)
+    rx = IncrementReceiver(capacity_periods=args.capacity, period_s=args.period_s)
+    with SocketEndpoint(rx, port=args.port).start() as ep:
+        print(f"increment receiver on {ep.port}; Ctrl-C to stop", flush=True)
+        try:
+            last = None
+            while True:
+                time.sleep(0.5)
+                now = (rx.executed_periods, tuple(rx.position_blu.tolist()))
+                if now != last:
+                    print(f"periods {now[0]:>9}  position {now[1]} BLU", flush=True)
+                    last = now
+        except KeyboardInterrupt:
+            pass
+
+
+if __name__ == "__main__":
+    main()
