@@ -10,7 +10,7 @@ Lines are split at "\n" only ("\r" is a blank). Errors raise ipr.entities.GCodeE
 
 Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar
 (ipr/gcode.lark); `parse_line(text)` returns the same thing through the fast path
-(ipr/syntax.py). Both return an `ipr.syntax.Block`, a NamedTuple:
+(ipr/shapes.py). Both return an `ipr.syntax.Block`, a NamedTuple:
 
     Block(words=(("G", 1.0), ("X", 12.5), ("Z", ("*", ("#", 3), 10.0))),
           assigns=((1, 0.5),),          # #1=.5 ; names are lower-case, no blanks
@@ -31,7 +31,8 @@ from itertools import islice
 from ipr.entities import Entity, GCodeError, Program
 from ipr.interpreter import Interpreter
 from ipr.modal import Setup
-from ipr.syntax import Block, LineSyntaxError, parse_line, parse_line_full
+from ipr.shapes import parse_line
+from ipr.syntax import Block, LineSyntaxError, parse_line_full
 
 _CHUNK_LINES = 1024   # iter_entities reads this many lines ahead
 

@@ -16,7 +16,8 @@ from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
 from ipr.modal import ModalState, Setup, Staged
-from ipr.syntax import LineSyntaxError, parse_line_columns, split_parts, template_for
+from ipr.shapes import MARK, expression_block, split_parts, template_for
+from ipr.syntax import LineSyntaxError, parse_line_columns
 
 MAX_VALUE = 1e31   # the fast path reads at most 30 digits; expressions may go further
 
@@ -102,9 +103,9 @@ class Interpreter:
             if self.done:
                 return n - 1
             parts = split_parts(text)
-            shape = "\x00".join(parts[0::2])
+            shape = MARK.join(parts[0::2])
             plan = plans[shape] if shape in plans else self._plan(shape)
-            if "\x00" in text:   # the shape's slot marker: such a line takes the full grammar
+            if MARK in text:   # the shapes' slot marker itself: such a line takes the full grammar
                 plan = None
             try:
                 if plan is None:
@@ -137,11 +138,13 @@ class Interpreter:
         self._execute(spec, vals, (), (), line, text)
 
     def _full(self, line: int, text: str) -> None:
-        """A line off the fast path: full grammar, expressions, parameters."""
-        try:
-            block, _ = parse_line_columns(text)
-        except LineSyntaxError as e:
-            raise BlockError("E-SYNTAX", e.message, col=e.col) from None
+        """A line that is not simple: expressions, parameters, comments, syntax errors."""
+        block = expression_block(text)
+        if block is None:
+            try:
+                block, _ = parse_line_columns(text)
+            except LineSyntaxError as e:
+                raise BlockError("E-SYNTAX", e.message, col=e.col) from None
         if block.percent:
             # % opens a program on its first line and then closes it; anywhere else it is wrong
             if self._percents == 0 and not self._started:

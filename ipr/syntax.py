@@ -1,20 +1,12 @@
-"""From one line of text to a `Block`: the grammar (gcode.lark) and its fast path.
+"""From one line of text to a `Block`, by the grammar (gcode.lark) and lark's LALR parser.
 
-`parse_line_full` always runs the lark LALR parser. `parse_line` gives the same
-result faster: most lines of real programs are "simple" — letters and plain numbers
-only. Such a line is split by one regex into its *shape* (the text with the numbers
-after every letter but G and M removed, e.g. "G1 X Y Z F") and the numbers. Each
-distinct shape is parsed ONCE by the full grammar, with "0" in every slot, giving a
-word template; the line's own numbers then fill the slots (a slot number is a plain
-signed decimal, which the grammar reads as exactly `float(text)`). Lines whose shape
-has anything else (comments, brackets, parameters, blanks between a letter and its
-number) take the full grammar. tests/test_ipr_props.py checks the two agree.
+`parse_line_full` runs the parser on a line; `parse_template` runs it on a line *shape*
+(see ipr.shapes, the fast path, which calls the parser once per distinct shape).
 """
 from __future__ import annotations
 
 import math
 import re
-from functools import lru_cache
 from pathlib import Path
 from typing import NamedTuple
 
@@ -63,15 +55,28 @@ def _to_float(token: Token) -> float:
     return value
 
 
+class Slot(NamedTuple):
+    """In a shape's template (ipr.shapes): the place of the shape's index-th number,
+    negated when a unary minus stands before it."""
+
+    index: int
+    negative: bool = False
+
+
 class _ToBlock(Transformer):
     """Builds Block and, in parallel, the 1-based column of every word."""
 
+    def _number(self, token: Token):
+        return _to_float(token)
+
     def number(self, items):
-        return _to_float(items[0])
+        return self._number(items[0])
 
     def neg(self, items):
         v = items[-1]
-        return -v if isinstance(v, float) else ("neg", v)
+        if isinstance(v, float):
+            return -v
+        return Slot(v.index, not v.negative) if isinstance(v, Slot) else ("neg", v)
 
     def value(self, items):
         return items[-1]
@@ -105,7 +110,7 @@ class _ToBlock(Transformer):
 
     def line_number(self, items):
         letter = items[0]
-        return ("word", "N", _to_float(items[1]), letter.column)
+        return ("word", "N", self._number(items[1]), letter.column)
 
     def assignment(self, items):
         target, value = items[0], items[-1]
@@ -140,15 +145,41 @@ class _ToBlock(Transformer):
         return Block(tuple(words), tuple(assigns), tuple(msgs), delete), tuple(cols)
 
 
+class _ToTemplate(_ToBlock):
+    """_ToBlock for a shape's text: the NUMBER tokens that are exactly a "0" put in place of
+    one of the shape's numbers (start positions in `slots`) become Slot markers."""
+
+    slots: dict[int, int] = {}
+
+    def _number(self, token: Token):
+        index = self.slots.get(token.start_pos)
+        if index is not None and token.replace(" ", "").replace("\t", "") == "0":
+            return Slot(index)
+        return _to_float(token)
+
+
 _GRAMMAR = (Path(__file__).with_name("gcode.lark")).read_text()
 _PARSER = Lark(_GRAMMAR, parser="lalr", lexer="contextual", transformer=_ToBlock(),
                propagate_positions=False, maybe_placeholders=False)
+_TEMPLATE_TRANSFORMER = _ToTemplate()
+_TEMPLATE_PARSER = Lark(_GRAMMAR, parser="lalr", lexer="contextual", transformer=_TEMPLATE_TRANSFORMER,
+                        propagate_positions=False, maybe_placeholders=False)
 
 
 def parse_line_columns(text: str) -> tuple[Block, tuple[int, ...]]:
     """Full grammar: the Block and the 1-based column of each of its words."""
+    return _parse(_PARSER, text)
+
+
+def parse_template(text: str, slot_starts: list[int]) -> Block:
+    """Full grammar on a shape's text with "0" at `slot_starts`: a Block holding Slot markers."""
+    _TEMPLATE_TRANSFORMER.slots = {pos: i for i, pos in enumerate(slot_starts)}
+    return _parse(_TEMPLATE_PARSER, text)[0]
+
+
+def _parse(parser: Lark, text: str) -> tuple[Block, tuple[int, ...]]:
     try:
-        return _PARSER.parse(text.rstrip("\r\n"))
+        return parser.parse(text.rstrip("\r\n"))
     except UnexpectedCharacters as e:
         raise LineSyntaxError(e.column, f"unexpected character {text[e.pos_in_stream]!r}") from None
     except UnexpectedToken as e:
@@ -165,63 +196,3 @@ def parse_line_columns(text: str) -> tuple[Block, tuple[int, ...]]:
 def parse_line_full(text: str) -> Block:
     """Parse one line with the full lark grammar."""
     return parse_line_columns(text)[0]
-
-
-# Numbers directly after a letter other than G/M become slots; G and M numbers stay in
-# the shape because they select the codes.
-_D = MAX_DIGITS
-_SLOT = re.compile(rf"(?<=[A-FH-LN-Za-fh-ln-z])([-+]?(?:[0-9]{{1,{_D}}}(?:\.[0-9]{{0,{_D}}})?|\.[0-9]{{1,{_D}}}))(?![0-9])")
-_SIMPLE_SHAPE = re.compile(r"[ \t]*(?:/[ \t]*)?(?:(?:[GMgm](?:[0-9]+\.?[0-9]*|\.[0-9]+)|[A-FH-LN-Za-fh-ln-z]\x00)[ \t]*)*\r?\n?")
-_SHAPE_CACHE_MAX = 4096
-
-
-class Template(NamedTuple):
-    """A shape's words: `fixed` values for G/M, None where a slot number goes."""
-
-    letters: tuple[str, ...]
-    fixed: tuple[float | None, ...]
-    slots: tuple[int, ...]          # word index of each slot, in text order
-    delete: bool
-    key: str
-
-
-@lru_cache(maxsize=_SHAPE_CACHE_MAX)
-def template_for(shape: str) -> Template | None:
-    """The word template of a simple shape (parsed once by the full grammar), else None."""
-    if _SIMPLE_SHAPE.fullmatch(shape) is None:
-        return None
-    parts = shape.split("\x00")
-    try:
-        block = parse_line_full("0".join(parts))
-    except LineSyntaxError:
-        return None   # the full grammar will report it, at the right column
-    letters = tuple(w[0] for w in block.words)
-    slots = tuple(i for i, w in enumerate(block.words) if w[0] not in "GM")
-    if len(slots) != len(parts) - 1:
-        return None
-    fixed = tuple(None if i in slots else w[1] for i, w in enumerate(block.words))
-    return Template(letters, fixed, slots, block.delete, shape)
-
-
-def split_parts(text: str) -> list[str]:
-    """[text, number, text, number, ..., text]: the shape is "\x00".join(parts[0::2])."""
-    return _SLOT.split(text)
-
-
-def split_line(text: str) -> tuple[Template | None, list[str]]:
-    """The line's template (None: not simple) and its slot numbers as text."""
-    if "\x00" in text:   # the slot marker itself: only the full grammar is unambiguous
-        return None, []
-    parts = _SLOT.split(text)
-    return template_for("\x00".join(parts[0::2])), parts[1::2]
-
-
-def parse_line(text: str) -> Block:
-    """Same result as parse_line_full(text), through the shape cache where it applies."""
-    tpl, nums = split_line(text)
-    if tpl is None:
-        return parse_line_full(text)
-    values = list(tpl.fixed)
-    for i, s in zip(tpl.slots, nums):
-        values[i] = float(s)
-    return Block(tuple(zip(tpl.letters, values)), (), (), tpl.delete)

@@ -76,8 +76,16 @@ def test_case_and_blanks_inside_words_and_numbers():
 
 def test_fast_path_equals_full_grammar_on_examples():
     for text in ["G1 X12.3456 Y-5.4321 Z0.3 F1200", "/N10G1X1", " X3.2040 Z-0.1539\r", "G1 X1 2",
-                 "G0 Z[#3*10.]", "m3 s1000", "G6.2 X54.493 Y52.139 R1 K0 P5 Q1", ""]:
+                 "G0 Z[#3*10.]", "m3 s1000", "G6.2 X54.493 Y52.139 R1 K0 P5 Q1", "",
+                 "Y[#2*-56.12] Z[#3*-27.725]", "#1 = .5", "#[1+2]=3 X-[2]", "X--5 (note 5)",
+                 "G1 X[1-2-3] F[#4*100]", "X[-2**2] Y[SIN[30]]", "(MSG, part 5)", "#<a>=[1 EQ 1]"]:
         assert ipr.parse_line(text) == ipr.parse_line_full(text), text
+    errors = []
+    for parse in (ipr.parse_line, ipr.parse_line_full):
+        with pytest.raises(ipr.LineSyntaxError) as info:
+            parse("X[1.5.5]")
+        errors.append((info.value.col, info.value.message))
+    assert errors[0] == errors[1] and errors[0][0] == 6
 
 
 def test_g_and_m_may_repeat_across_groups():
