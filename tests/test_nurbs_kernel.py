@@ -131,8 +131,8 @@ def test_all_paths_match_scipy_homogeneous(seed, p):
     n_d = min(p, 2)
     scale = np.abs(ref).max(axis=(1, 2))[:, None] + 1.0
     ours = nurbs.curve_derivs(p, knots, weights, points, u, 2)
-    np.testing.assert_allclose(ours[:n_d + 1, :, :] / scale[:n_d + 1, :, None], ref[:n_d + 1] / scale[:n_d + 1, :, None],
-                               atol=1e-11)
+    sc = scale[:n_d + 1, :, None]
+    np.testing.assert_allclose(ours[:n_d + 1] / sc, ref[:n_d + 1] / sc, atol=1e-11)
     pw = np.hstack([points * weights[:, None], weights[:, None]])
     breaks, inv_h, coef = nj.compile_curve(p, knots, weights, points)
     out = np.empty((3, 3))

@@ -77,6 +77,7 @@ def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_eva
     click.echo(f"start-up evaluations  {summary['startup_evals']}   (largest over the NURBS entities)")
     click.echo(f"steps per second      {summary['steps_per_s']:.3g}")
     if pulse_dev is not None:
-        click.echo(f"pulse path deviation  {pulse_dev:.3f} BLU   (BLU = {blu_um:g} um, largest distance from the curve)")
+        click.echo(f"pulse path deviation  {pulse_dev:.3f} BLU   (BLU = {blu_um:g} um, "
+                   "largest distance from the curve)")
     if out is not None:
         click.echo(f"wrote {out}")
