@@ -20,10 +20,9 @@ import numpy as np
 from ipo.fit_tolerance import FitSettings, Piece, fit_polyline, max_deviation, nurbs_blocks
 from ipo.g01_runs import DEFAULT_CORNER_DEG, run_vertices, split_runs
 from ipo.rational_fit import RationalFit
+from ipr import Setup, parse_line
 from ipr.entities import Line
 from ipr.interpreter import Interpreter
-from ipr.modal import Setup
-from ipr.syntax import parse_line
 
 PURE_LETTERS = frozenset("NGXYZF")
 AXIS_LETTERS = frozenset("XYZ")
