@@ -47,7 +47,7 @@ class GrblDouble:
         self.partial_blocks = partial_blocks  # a hold stops inside the running block (lines and arcs)
         self.partials: list[tuple[str, tuple]] = []  # blocks cut short by a reset: (line, where)
         self.wco = tuple(wco)
-        self.settings = settings or {0: 10, 1: 25, 10: 1, 11: 0.01, 12: 0.002, 13: 0, 20: 0, 21: 0, 22: 0,
+        self.settings = settings or {0: 10, 1: 25, 10: 3, 11: 0.01, 12: 0.002, 13: 0, 20: 0, 21: 0, 22: 0,
                                      100: 250.0, 101: 250.0, 102: 250.0, 110: 6000.0, 111: 6000.0,
                                      112: 6000.0, 120: 1000.0, 121: 1000.0, 122: 1000.0,
                                      130: 2000.0, 131: 2000.0, 132: 2000.0}

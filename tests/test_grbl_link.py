@@ -284,13 +284,14 @@ def test_ledger_refuses_duplicates_and_orphan_answers():
 
 def test_connect_warns_where_grbl_rates_disagree_with_the_machine_file():
     settings = dict(GrblDouble().settings)
-    settings[110], settings[121] = 3000.0, 500.0
+    settings[110], settings[121], settings[10] = 3000.0, 500.0, 1
     d = GrblDouble(settings=settings)
     with PtyServer(d).start() as srv:
         link = GrblLink(srv.port, **FAST)
         info = link.connect(CFG)
         link.close()
-    assert len(info.warnings) == 2
+    assert len(info.warnings) == 3
+    assert "set $10=3 to see planner blocks free" in info.warnings[2]
     assert "$110=3000 mm/min (X max rate) is lower than the machine file's 6000" in info.warnings[0]
     assert "$121=500" in info.warnings[1] and "1000" in info.warnings[1]
     assert info.build.rx_buffer_bytes == 128 and info.build.planner_blocks == 15

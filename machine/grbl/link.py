@@ -202,6 +202,9 @@ class GrblLink:
         warnings = P.compare_settings(settings, config) if config is not None else []
         if settings.get(13, 0.0):
             warnings.append("grbl reports in inches ($13=1); vcnc reads positions as mm")
+        if 10 in settings and not int(settings[10]) & 2:
+            warnings.append(f"grbl's status reports carry no planner or RX buffer state ($10={int(settings[10])}); "
+                            f"set $10={int(settings[10]) | 2} to see planner blocks free")
         return ConnectInfo(banner, settings, build, warnings, st.state == "Alarm")
 
     def stream(self, lines: Iterable[StreamLine], ledger: Ledger, *, resume: ResumePoint | None = None,
