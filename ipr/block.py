@@ -67,8 +67,11 @@ class BlockSpec:
 
     def moves(self, motion: int | None) -> bool:
         """Does the block execute its (modal) motion?"""
-        if "motion" in self.g:
-            return self.g["motion"] != 800
+        code = self.g.get("motion")
+        if code is not None:
+            if code in (0, 10):
+                return bool(self.axes)   # a bare G0/G1 only sets the mode
+            return code != 800
         if self.axes and self.g.get("nonmodal") != 920:
             return True
         if motion in NURBS_MOTIONS:

@@ -147,7 +147,7 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
         feed_mm_s = st.feed_mm_s
         if feed_mm_s <= 0.0:
             word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
-            raise BlockError("E-FEED-ZERO", f"feed move with feed rate zero (program an F word)", word)
+            raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", word)
         if motion == 10:
             out.append(Line(line, st.pos, end, feed_mm_s, st.path))
         else:

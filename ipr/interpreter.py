@@ -3,7 +3,8 @@
 Per line: ipr.syntax gives the words (through the shape cache for simple lines),
 ipr.block checks them against the modal groups (cached per signature), and the block
 is executed on a staged view of the state, committed only if nothing failed. Plain
-G0/G1 blocks (axis words, F, N only) take a short path with the same checks.
+G0/G1 blocks (axis words, F, N only) run through a function generated per line shape
+(ipr.linear), which hands anything unusual back to the general path.
 """
 from __future__ import annotations
 
@@ -11,10 +12,11 @@ from collections.abc import Iterable
 
 from ipr import nurbs_blocks
 from ipr.block import BlockSpec, analyse
-from ipr.entities import Diagnostic, GCodeError, Line, Message, Rapid
+from ipr.entities import Diagnostic, GCodeError, Message
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
+from ipr.linear import compile_step
 from ipr.modal import ModalState, Setup, Staged
 from ipr.shapes import MARK, expression_block, split_parts, template_for
 from ipr.syntax import LineSyntaxError, parse_line_columns
@@ -80,13 +82,12 @@ class Interpreter:
             plan = None
         else:
             spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
-            fast = None
+            step = None
             if spec.__class__ is BlockSpec and spec.linear and not tpl.delete:
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
-                axis_parts = {k: part[i] for k, i in spec.axis_idx}
-                ends = _end_functions(axis_parts) if axis_parts else (None, None)
-                fast = (spec.motion, part.get(spec.f_index), *ends)
-            plan = (tpl, spec, fast)
+                step = compile_step(spec.motion, part.get(spec.f_index),
+                                    {k: part[i] for k, i in spec.axis_idx})
+            plan = (tpl, spec, step)
         self._plans[shape] = plan
         return plan
 
@@ -97,7 +98,7 @@ class Interpreter:
     def run(self, lines: Iterable[str], first: int = 1) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
         returns the number of the last line read."""
-        state, plans = self.state, self._plans
+        state, plans, append = self.state, self._plans, self.out.append
         n = first - 1
         for n, text in enumerate(lines, first):
             if self.done:
@@ -110,14 +111,10 @@ class Interpreter:
             try:
                 if plan is None:
                     self._full(n, text)
-                    continue
-                fast = plan[2]
-                if fast is not None and state.nurbs is None:
-                    motion = fast[0] if fast[0] is not None else state.motion
-                    if motion == 10 or motion == 0:
-                        self._linear(motion, fast, parts, n)
-                        continue
-                self._template(plan, parts, n, text)
+                elif plan[2] is None or not plan[2](parts, n, state, append):
+                    self._template(plan, parts, n, text)
+                else:
+                    self._started = True
             except BlockError as err:
                 self._fail(err, n, text)
         return n
@@ -182,33 +179,6 @@ class Interpreter:
                                   f"the end of the program (line {last_line})", col=1, line=group.line),
                        group.line, "")
 
-    # ---- the short path: G0/G1 with axis words, F, N ---------------------------------
-    def _linear(self, motion: int, fast: tuple, parts: list, line: int) -> None:
-        """G0/G1 with only axis words, F and N: same checks as _execute, less overhead."""
-        s = self.state
-        self._started = True
-        _, f_part, end_abs, end_inc = fast
-        feed_mm_s = s.feed_mm_s
-        if f_part is not None:
-            f = float(parts[f_part])
-            if f < 0.0:
-                raise BlockError("E-VALUE", f"negative feed rate F{f:g}", col=_col(parts, f_part))
-            feed_mm_s = f * s.unit / 60.0
-        if end_abs is not None:
-            pos = s.pos
-            unit = s.unit
-            end = (end_abs if s.absolute else end_inc)(parts, pos, unit, s.offset)
-            if motion == 10:
-                if feed_mm_s <= 0.0:
-                    raise BlockError("E-FEED-ZERO", "G1 move with feed rate zero (program an F word)",
-                                     col=_col(parts, end_abs.first_part))
-                self.out.append(Line(line, pos, end, feed_mm_s, s.path))
-            else:
-                self.out.append(Rapid(line, pos, end, s.path))
-            s.pos = end
-        s.feed_mm_s = feed_mm_s
-        s.motion = motion
-
     # ---- the general path ---------------------------------------------------------
     def _execute(self, spec: BlockSpec, vals: list, assigns, messages, line: int, text: str) -> None:
         base = self.state
@@ -246,27 +216,3 @@ class Interpreter:
             self._notice(code, message, line, text, word, "warning" if code.startswith("W") else "notice")
         if self.state.ended:
             self.done = True
-
-
-def _end_functions(axis_parts: dict[int, int]):
-    """The compiled word template of a plain G0/G1 shape: two functions from the line's
-    parts (ipr.syntax.split_parts) to the end point, absolute (G90) and incremental (G91).
-    `axis_parts` maps axis 0..2 to the index of its number in parts; omitted axes stay."""
-    absolute, incremental = [], []
-    for k in range(3):
-        if k in axis_parts:
-            absolute.append(f"float(p[{axis_parts[k]}]) * u + o[{k}]")
-            incremental.append(f"pos[{k}] + float(p[{axis_parts[k]}]) * u")
-        else:
-            absolute.append(f"pos[{k}]")
-            incremental.append(f"pos[{k}]")
-    make = "lambda p, pos, u, o: ({},)"
-    end_abs = eval(make.format(", ".join(absolute)), {"float": float})
-    end_inc = eval(make.format(", ".join(incremental)), {"float": float})
-    end_abs.first_part = end_inc.first_part = min(axis_parts.values())
-    return end_abs, end_inc
-
-
-def _col(parts: list[str], p: int) -> int:
-    """1-based column of the letter just before the slot number parts[p]."""
-    return len("".join(parts[:p]))

@@ -64,7 +64,7 @@ def test_errors_go_to_stderr_with_exit_1(tmp_path):
     assert result.exit_code == 1
     assert result.stderr.splitlines() == [
         f"{path}:2:1: error[E-GCODE-UNSUPPORTED]: unsupported G-code G41 (cutter radius compensation)",
-        f"{path}:3:4: error[E-FEED-ZERO]: G1 move with feed rate zero (program an F word)",
+        f"{path}:3:1: error[E-FEED-ZERO]: feed move with feed rate zero (program an F word)",
     ]
     assert result.stdout == ""
     result, _ = _run(tmp_path, "G0 X1\nG41 X2\nG1 X3\n")
