@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 CORPUS = ROOT.parent / "shared" / "corpus" / "linuxcnc"
-STELLA_LINES = 6000
+STELLA_LINES = 4000
 TOLS_MM = (0.001, 0.01)
 
 from ipo.fit_tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402

@@ -175,13 +175,14 @@ def _solve_weights(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w_old: np.n
 
 
 def _positive_step(w_old: np.ndarray, w_new: np.ndarray) -> np.ndarray:
-    """Move from w_old towards w_new as far as every weight stays >= MIN_WEIGHT * max."""
-    floor = MIN_WEIGHT * w_old.max()
-    low = w_new < floor
-    if not low.any():
-        return w_new
-    t = np.min((w_old[low] - floor) / (w_old[low] - w_new[low]))
-    return w_old + max(t, 0.0) * (w_new - w_old)
+    """Move from w_old towards w_new as far as (at most all the way) every weight stays at or above
+    MIN_WEIGHT * max(w_old); a weight already below that floor may only grow."""
+    floor = np.minimum(MIN_WEIGHT * w_old.max(), w_old)
+    falling = w_new < w_old
+    t = 1.0
+    if falling.any():
+        t = min(1.0, float(np.min((w_old[falling] - floor[falling]) / (w_old[falling] - w_new[falling]))))
+    return w_old + t * (w_new - w_old)
 
 
 def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int = 30,
