@@ -5,8 +5,14 @@
     for entity in iter_entities(open("big.nc"), "big.nc"):   # streaming, bounded memory
         ...
 
-Lines are split at "\n" only ("\r" is a blank). Errors raise ipr.entities.GCodeError, whose `diagnostics` print as
-`file:line:col: error[CODE]: message` (codes: ipr/errors.py, docs/gcode-errors.md).
+Lines are split at "\n" only ("\r" is a blank). Errors raise ipr.entities.GCodeError,
+whose `diagnostics` print as `file:line:col: error[CODE]: message` (codes: ipr/errors.py,
+docs/gcode-errors.md; corner cases of the dialect: docs/gcode-notes.md).
+
+Modules: gcode.lark + syntax.py (grammar), shapes.py (fast path: line shapes parsed once),
+block.py (modal-group checks), interpreter.py (lines -> blocks, atomic commit), execute.py
+(a block's effects), linear.py (plain G0/G1 fast path), arcs.py, nurbs_blocks.py +
+nurbs_groups.py (NURBS block forms), expressions.py, modal.py (state, Setup), errors.py.
 
 Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar
 (ipr/gcode.lark); `parse_line(text)` returns the same thing through the fast path
