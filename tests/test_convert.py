@@ -144,3 +144,45 @@ def test_vcnc_fit_command(tmp_path):
     parse_text(dst.read_text())
     bad = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "-1"])
     assert bad.exit_code != 0
+
+
+def test_split_runs_breaks_at_corners_feed_and_other_entities():
+    from ipo.g01_runs import split_runs
+    from ipr.entities import Rapid
+
+    def line(n, a, b, f=10.0):
+        return Line(n, a, b, f)
+
+    p = [(0.0, 0, 0), (1.0, 0, 0), (2.0, 0.2, 0), (3.0, 0.5, 0), (3.0, 1.5, 0), (3.0, 2.5, 0)]
+    ents = [line(i + 1, p[i], p[i + 1]) for i in range(5)]  # turns: 11.3, 5.4, 73.3 (corner), 0 deg
+    runs = split_runs(ents, corner_deg=30.0)
+    assert [[e.line for e in r] for r in runs] == [[1, 2, 3], [4, 5]]
+    assert len(split_runs(ents, corner_deg=80.0)) == 1
+    ents2 = ents[:2] + [Rapid(9, p[2], p[2])] + [line(3, p[2], p[3], 20.0)] + ents[3:]
+    assert [[e.line for e in r] for r in split_runs(ents2, corner_deg=80.0)] == [[1, 2], [3], [4, 5]]
+    with pytest.raises(ValueError):
+        split_runs(ents, corner_deg=200.0)
+
+
+def test_vcnc_compare_circles_side_by_side(tmp_path):
+    import json
+    from pathlib import Path
+
+    from machine.cli import main
+
+    progs = Path(__file__).resolve().parents[1] / "programs"
+    a, b = progs / "circle_g1_360.nc", progs / "circle_nurbs.nc"
+    png = tmp_path / "cmp.png"
+    res = CliRunner().invoke(main, ["compare", str(a), str(b), "--json", "--plot", str(png)])
+    assert res.exit_code == 0, res.output
+    figs = json.loads(res.output[res.output.index("{"):])
+    assert figs["a"]["blocks"] == count_blocks(a.read_text()) and figs["b"]["bytes"] == len(b.read_bytes())
+    for key in ("a", "b"):
+        f = figs[key]
+        # one circle of radius 10 at F1000 takes at least 2 pi 10 / (1000/60) s
+        assert f["time_s"] > 2 * np.pi * 10 / (1000 / 60)
+        assert 0 < f["min_feed_mm_min"] <= f["mean_feed_mm_min"] <= 1000 * 1.001
+        assert f["rmax_max_um"] is None  # the default machine has no finishing section
+    # the 360-gon lies within 0.4 um of the circle; both paths share the G64 corner blends (10 um)
+    assert figs["a"]["path_distance_um"] < 15 and figs["b"]["path_distance_um"] < 15
+    assert png.stat().st_size > 10_000
