@@ -2,11 +2,13 @@
 
 A G01 polyline is replaced by 001 rational fits only where every point of the
 curve lies within `tol_mm` of the polyline and every point of the polyline within
-`tol_mm` of the curve. Both distances are measured densely and conservatively:
-each is the distance to one particular point of the other path (a segment's
-nearest point, or the curve point found by golden section), so it can only
-overstate the true distance. The control-point count is found by doubling then
-bisection; long polylines are split in two where that needs fewer blocks.
+`tol_mm` of the curve. Both are measured at points no more than SAMPLE_SPACING_MM
+apart (at least MIN_SAMPLES per segment), conservatively: each is the distance to
+one particular point of the other path (a segment's nearest point, or the curve
+point found by golden section), so it can only overstate the true distance. The
+control-point count is searched (the largest useful count first, then doubling and
+bisection); a piece is split in two at its sharpest vertex where that needs fewer
+blocks.
 """
 from __future__ import annotations
 
