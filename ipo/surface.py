@@ -132,3 +132,9 @@ def closest_points(surf: RationalSurface, q: np.ndarray, u0, v0, iterations: int
         if step < 1e-13 * max(u_hi - u_lo, v_hi - v_lo):
             break
     return u, v, np.linalg.norm(q - surface_points(surf, u, v), axis=1)
+
+
+def swap_uv(surf: RationalSurface) -> RationalSurface:
+    """The same surface with the parameter directions exchanged (the normal flips)."""
+    return RationalSurface(surf.degree_v, surf.degree_u, surf.knots_v, surf.knots_u, surf.weights.T.copy(),
+                           surf.points.transpose(1, 0, 2).copy())
