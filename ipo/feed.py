@@ -250,12 +250,19 @@ class FeedPlanner:
                 c = int(np.searchsorted(smp.s, self._s_end - reach, side="right")) - 1
                 if c < 1:
                     return
-            stops = np.nonzero(x[1:c] <= 0.0)[0]
-            halt = final
-            if len(stops):  # G61 and the like: the period grid lands exactly on the stop
-                c, halt = int(stops[0]) + 1, True
-            yield from self._emit(c, x, cap, reason, stop=halt)
-            if not (final or halt or self._override_changed):
+            # stops inside (G61 and the like) are emitted one by one from the same plan, so
+            # that the period grid lands exactly on each
+            stops = list(np.nonzero(x[1:c] <= 0.0)[0] + 1) + [c]
+            done = 0
+            for k in stops:
+                if k <= done:
+                    continue
+                halt = final or k < c
+                yield from self._emit(k - done, x[done:], cap[done:], reason[done:], stop=halt)
+                done = k
+                if self._override_changed:
+                    break
+            if not (final or self._override_changed):
                 return
         if final and self._smp is not None and len(self._smp) <= 1:
             self._reset_window()

@@ -157,8 +157,9 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     `finishing` = (ball radius, pick feed, roughness target, flutes) switches on 002's
     limiter for feed moves while the spindle turns; None switches it off. With j_max
     (S-curve mode) a jump of the curvature vector where pieces meet, which steps each
-    axis acceleration within a period, is kept within the jerk limit:
-    v^2 |dkv_i| <= J_i T; an unblended corner, v |dt_i| <= J_i T^2 / 2.
+    axis acceleration within a period, is kept within the jerk limit,
+    v^2 |dkv_i| <= J_i T, and the machine stops at an unblended corner (crossing it would
+    step the velocity itself).
     """
     x_axis = axis_velocity_cap(smp.t, v_max)
     x_curv = curvature_cap(smp.t, smp.kv, a_max)
@@ -177,8 +178,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         with np.errstate(divide="ignore"):
             dk = np.abs(smp.kv[edge + 1] - smp.kv[edge])
             x_jerk = np.min(j_max[None, :] * period_s / dk, axis=1)
-            v_sharp = np.min(0.5 * j_max[None, :] * period_s**2 / np.abs(dt), axis=1)
-        x_jerk = np.where(sharp, np.minimum(x_jerk, v_sharp**2), x_jerk)
+        x_jerk = np.where(sharp, 0.0, x_jerk)
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
         x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]

@@ -140,6 +140,27 @@ def refine(s, t, kv, x, cap, a_max, ascale):
             if kv[k, i] != 0.0 or kv[k + 1, i] != 0.0 or t[k, i] != t[k + 1, i]:
                 straight = False
         if not straight:
+            if ds > 0.0 and x[k] <= 0.0 and x[k + 1] <= 0.0:
+                # a curved stretch between two stops: accelerate, then brake, within the
+                # curvature cap of its ends
+                lo0, hi0 = _bounds(t, kv, k, 0.0, a_max, ascale[k])
+                lo1, hi1 = _bounds(t, kv, k + 1, 0.0, a_max, ascale[k])
+                hi, lo = min(hi0, hi1), max(lo0, lo1)
+                if hi > 0.0 and lo < 0.0:
+                    sp = -lo * ds / (hi - lo)
+                    xp = 2.0 * hi * sp
+                    for i in range(3):
+                        kmax = max(abs(kv[k, i]), abs(kv[k + 1, i]))
+                        if kmax > 0.0:
+                            xp = min(xp, 0.5 * a_max[i] / kmax)
+                    so[m] = s[k] + min(sp, xp / (2.0 * hi))
+                    xo[m] = xp
+                    src[m] = k
+                    m += 1
+                    so[m] = s[k + 1] - xp / (-2.0 * lo)
+                    xo[m] = xp
+                    src[m] = k
+                    m += 1
             continue
         lo, hi = _bounds(t, kv, k, 0.0, a_max, ascale[k])
         c = min(cap[k], cap[k + 1])
