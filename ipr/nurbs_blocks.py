@@ -9,7 +9,7 @@ control point; G5.3 closes. In G91 a control point is relative to the previous o
 from __future__ import annotations
 
 from ipr.entities import PLANE_AXES
-from ipr.errors import BlockError
+from ipr.errors import BlockError, code_name
 from ipr.modal import target
 from ipr.nurbs_groups import (FANUC_DEFAULT_ORDER, G5_DEFAULT_ORDER, NurbsGroup, check_knot,
                               check_order, check_start, check_weight, finish)
@@ -88,21 +88,24 @@ def continue_group(st, spec, vals) -> object | None:
         if letter not in allowed:
             raise BlockError("E-NURBS-BLOCK", f"{letter} word inside the {group.name} group begun at "
                              f"line {group.line}: only control points and knots may follow", i)
-    codes = set(spec.g.values()) | {m + 1000 for m in spec.m.values()}
-    if codes - {group.kind, 53}:
-        where = min(spec.where.values())
-        raise BlockError("E-NURBS-BLOCK", f"code inside the {group.name} group begun at line "
-                         f"{group.line}: only control points and knots may follow", where)
+    for name, code in list(spec.g.items()) + list(spec.m.items()):
+        if code not in (group.kind, 53) or name not in spec.g:
+            letter = "G" if name in spec.g else "M"
+            raise BlockError("E-NURBS-BLOCK", f"{code_name(letter, code / 10)} inside the {group.name} "
+                             f"group begun at line {group.line}: only control points and knots may follow",
+                             spec.where[name])
     if group.kind == 52:
         if spec.g.get("motion") == 53:
             if idx.keys() - {"N"}:
                 raise BlockError("E-NURBS-BLOCK", "G5.3 takes no words", min(idx.values()))
             return _close(st, group, spec.where["motion"])
         if not _check_g52_axes(st, spec):
-            raise BlockError("E-WORD-MISSING", "G5.2 control point needs X and Y (the plane's axes)",
+            pa, pb, _ = _plane_words(st.plane)
+            raise BlockError("E-WORD-MISSING", f"G5.2 control point needs {pa} and {pb}",
                              min(idx.values(), default=None))
         if "P" not in idx:
-            raise BlockError("E-WORD-MISSING", "G5.2 control point needs a P word (weight)", None)
+            raise BlockError("E-WORD-MISSING", "G5.2 control point needs a P word (weight)",
+                             idx[spec.axes[0]])
         point = target(st, spec, vals, group.points[-1])
         weight = check_weight(vals[idx["P"]], idx["P"])
         st.after_commit.append(lambda: (group.points.append(point), group.weights.append(weight)))
@@ -115,8 +118,9 @@ def continue_group(st, spec, vals) -> object | None:
         check_knot(group, knot, idx["K"])
     if spec.axes or "R" in idx:
         if group.closing:
+            word = idx[spec.axes[0]] if spec.axes else idx["R"]
             raise BlockError("E-NURBS-BLOCK", "control point after the closing knot blocks of the "
-                             f"group begun at line {group.line}", idx.get("R", idx.get(spec.axes[0]) if spec.axes else None))
+                             f"group begun at line {group.line}", word)
         point = target(st, spec, vals, group.points[-1])
         weight = check_weight(vals[idx["R"]], idx["R"]) if "R" in idx else 1.0
 
@@ -131,7 +135,10 @@ def continue_group(st, spec, vals) -> object | None:
         raise BlockError("E-NURBS-BLOCK", f"block without a knot or control point inside the G6.2 "
                          f"group begun at line {group.line}", min(idx.values(), default=None))
     if group.closing + 1 < group.order:
-        st.after_commit.append(lambda: (group.knots.append(knot), setattr(group, "closing", group.closing + 1)))
+        def add_knot():
+            group.knots.append(knot)
+            group.closing += 1
+        st.after_commit.append(add_knot)
         return None
     closed = NurbsGroup(62, group.line, group.order, group.feed_mm_s, group.path)
     closed.points, closed.weights = group.points, group.weights
