@@ -74,12 +74,12 @@ class NurbsTable:
         for _ in range(3):
             du = u - self.u[k]
             uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
-            sp = np.linalg.norm(nk.curve_derivs(e.degree, e.knots, e.weights, e.points, uu.ravel(), 1)[1],
+            sp = np.linalg.norm(_derivs(e, uu.ravel(), 1)[1],
                                 axis=1).reshape(uu.shape)
             s_u = self.s[k] + 0.5 * du * (sp @ wg)
-            speed = np.linalg.norm(nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, 1)[1], axis=1)
+            speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
             u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
-        return nk.curve_points(e.degree, e.knots, e.weights, e.points, u)
+        return _derivs(e, u, 0)[0]
 
     def curvature_at(self, s: np.ndarray) -> np.ndarray:
         return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
@@ -89,8 +89,22 @@ class NurbsTable:
         return float(self.s[-1])
 
 
+_BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])
+
+
+def _derivs(e, u: np.ndarray, n: int) -> np.ndarray:
+    """C(u) and its first n derivatives; a cubic Bezier (the corner blends) in closed form."""
+    if e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, _BEZIER3_KNOTS) and np.all(e.weights == 1):
+        p0, p1, p2, p3 = e.points
+        a1, a2, a3 = 3 * (p1 - p0), 3 * (p2 - 2 * p1 + p0), p3 - 3 * p2 + 3 * p1 - p0
+        uu = np.asarray(u, dtype=float)[:, None]
+        out = [p0 + uu * (a1 + uu * (a2 + uu * a3)), a1 + uu * (2 * a2 + 3 * uu * a3), 2 * a2 + 6 * uu * a3]
+        return np.stack(out[:n + 1])
+    return nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, n)
+
+
 def _nurbs_frame(e, u: np.ndarray):
-    d = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, 2)
+    d = _derivs(e, u, 2)
     d1, d2 = d[1], d[2]
     speed = np.linalg.norm(d1, axis=1)
     if np.any(speed <= 0):
