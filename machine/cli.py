@@ -17,6 +17,8 @@ COMMANDS = {
     "stream": "machine.commands.stream",
     "fit": "machine.commands.fit",
     "compare": "machine.commands.compare",
+    "surface": "machine.commands.surface",
+    "toolpath": "machine.commands.toolpath",
 }
 
 
