@@ -60,6 +60,7 @@ class GrblDouble:
         self.pos = [0.0, 0.0, 0.0]  # work coordinates of the machine
         self.executed: list[tuple[str, tuple | None]] = []  # (line, target) in the order it took effect
         self.lines_received = 0
+        self.received: list[str] = []  # every non-empty line as it arrived
         self.state, self.sub = "Idle", 0
         self.alarm_lock = False
         self.feed_ov = 100
@@ -202,6 +203,7 @@ class GrblDouble:
         line = re.sub(r"\s|\(.*?\)", "", raw).upper()
         if line:
             self.lines_received += 1
+            self.received.append(raw)
         f = self.faults
         if f.hang_after_lines is not None and self.lines_received > f.hang_after_lines:
             self.hung = True

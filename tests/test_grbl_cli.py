@@ -12,6 +12,7 @@ from ipo.config import default_config
 from ipr import parse_file
 from machine.cli import main
 from machine.grbl.program import stream_lines
+from machine.increments import frames as F
 from machine.increments.receiver import IncrementReceiver, SocketEndpoint
 
 DEMO = Path(__file__).resolve().parents[1] / "programs" / "demo.nc"
@@ -28,6 +29,33 @@ def test_dry_run_writes_exactly_the_stream():
     want = "".join(l.text + "\n" for l in _expected_lines())
     assert res.stdout_bytes.decode("ascii") == want
     assert all(len(t) <= 79 for t in want.splitlines())
+
+
+def test_a_clean_stream_sends_exactly_the_dry_run_lines():
+    dry = CliRunner().invoke(main, ["stream", str(DEMO), "--dry-run"]).stdout_bytes.decode("ascii").splitlines()
+    d = GrblDouble()
+    with PtyServer(d).start() as srv:
+        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20"])
+    assert res.exit_code == 0, res.output
+    assert d.received[:2] == ["$$", "$I"] and d.received[2:] == dry
+    assert d.max_rx_fill <= 127 and d.rx_overflow == 0
+
+
+def test_increment_frames_sent_are_the_dry_run_frames():
+    dry = CliRunner().invoke(main, ["stream", str(DEMO), "--dry-run", "--protocol", "increments"]).stdout_bytes
+    want = F.FrameParser().feed(dry)
+    seen = bytearray()
+    remote = IncrementReceiver(capacity_periods=4096)
+    with SocketEndpoint(remote, mangle=lambda b: seen.extend(b) or b).start() as ep:
+        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", ep.port, "--protocol", "increments"])
+    assert res.exit_code == 0, res.output
+    got = F.FrameParser().feed(bytes(seen))
+    assert got[0].kind == want[0].kind == F.HELLO
+    data = {f.seq: f.inc_blu for f in got if f.kind == F.DATA}  # a resend repeats a seq
+    want_data = [f for f in want if f.kind == F.DATA]
+    assert sorted(data) == [f.seq for f in want_data]
+    assert all(np.array_equal(data[f.seq], f.inc_blu) for f in want_data)
+    assert {f.kind for f in got[1:]} <= {F.DATA, F.POLL}
 
 
 def test_stream_resume_after_error_through_the_cli():

@@ -55,11 +55,11 @@ def _dry_run(protocol, program, config, resume_from) -> None:
 
         from ipo.feed import plan_periods
         from machine.increments import frames as F
-        from machine.increments.link import _chunks
+        from machine.increments.link import frame_chunks
 
         out.write(F.hello_frame())
         batches = (b for b in plan_periods(program.entities, config) if hasattr(b, "inc_blu"))
-        for seq, inc in enumerate(_chunks(batches, F.MAX_PERIODS)):
+        for seq, inc in enumerate(frame_chunks(batches, F.MAX_PERIODS)):
             out.write(F.data_frame(seq, np.asarray(inc)))
         return
     lines, notices = _grbl_lines(program, config, resume_from)

@@ -31,7 +31,8 @@ class SendResult:
     sum_blu: np.ndarray  # the increments sent, summed per axis
 
 
-def _chunks(batches: Iterable, max_periods: int) -> Iterator[np.ndarray]:
+def frame_chunks(batches: Iterable, max_periods: int) -> Iterator[np.ndarray]:
+    """The increments of PeriodBatches (or (N, axes) arrays) cut into runs of at most max_periods."""
     for b in batches:
         inc = np.asarray(getattr(b, "inc_blu", b), dtype=np.int64)
         for i in range(0, len(inc), max_periods):
@@ -74,7 +75,7 @@ class IncrementLink:
         frame is acknowledged and, with `wait_drained`, the drive has executed them all."""
         if not self.free:
             self.hello()
-        chunks = _chunks(batches, min(F.MAX_PERIODS, self.free))
+        chunks = frame_chunks(batches, min(F.MAX_PERIODS, self.free))
         pending = next(chunks, None)
         seq = 0
         unacked: deque[tuple[int, int, bytes]] = deque()  # (seq, periods, frame)
