@@ -61,5 +61,5 @@ def bump(noise_mm: float = 0.0, n_sections: int = 11, n_points: int = 25, seed: 
 def csv_text(sections: list[np.ndarray]) -> str:
     rows = ["section,x,y,z"]
     for h, q in enumerate(sections, 1):
-        rows += [f"{h},{x!r},{y!r},{z!r}" for x, y, z in q]
+        rows += [f"{h},{float(x)!r},{float(y)!r},{float(z)!r}" for x, y, z in q]
     return "\n".join(rows) + "\n"
