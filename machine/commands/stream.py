@@ -31,21 +31,20 @@ def _load_program(path):
 
 
 def _grbl_lines(program, config, resume_from):
+    """The whole stream, made before a byte goes out, so a program grbl cannot take fails
+    here and not halfway through; with resume_from, the lines from there on."""
     from ipr.entities import Nurbs
     from machine.grbl.program import StreamProgramError, stream_lines
 
     notices: list[str] = []
     has_nurbs = any(isinstance(e, Nurbs) for e in program.entities)
-    lines = stream_lines(program.entities, config, notices=notices, ipo_from_start=has_nurbs)
-
-    def checked():
-        try:
-            for line in lines:
-                if resume_from is None or line.seq >= resume_from:
-                    yield line
-        except StreamProgramError as err:
-            raise click.ClickException(str(err)) from None
-    return checked(), notices
+    try:
+        lines = list(stream_lines(program.entities, config, notices=notices, ipo_from_start=has_nurbs))
+    except (StreamProgramError, ValueError) as err:
+        raise click.ClickException(str(err)) from None
+    if resume_from is not None and resume_from > len(lines):
+        raise click.ClickException(f"--resume-from {resume_from}: the stream has {len(lines)} lines")
+    return (lines if resume_from is None else lines[resume_from - 1:]), notices
 
 
 def _dry_run(protocol, program, config, resume_from) -> None:
@@ -63,17 +62,15 @@ def _dry_run(protocol, program, config, resume_from) -> None:
             out.write(F.data_frame(seq, np.asarray(inc)))
         return
     lines, notices = _grbl_lines(program, config, resume_from)
-    first = True
+    if resume_from is not None:
+        out.write("".join(t + "\n" for t in lines[0].restore).encode("ascii"))
     for line in lines:
-        if first and resume_from is not None:
-            out.write("".join(t + "\n" for t in line.restore).encode("ascii"))
-        first = False
         out.write(line.text.encode("ascii") + b"\n")
     for n in notices:
         click.echo(f"notice: {n}", err=True)
 
 
-def _progress(live):
+def _progress(live, total: int):
     from rich.text import Text
 
     from machine.grbl import protocol as P
@@ -88,7 +85,7 @@ def _progress(live):
                 held = link.status is not None and link.status.state == "Hold"
                 link.realtime(keymap[k] or (P.CYCLE_RESUME if held else P.FEED_HOLD))
         st = link.status
-        text = f"acknowledged {ledger.last_acknowledged:>7} lines"
+        text = f"acknowledged {ledger.last_acknowledged:>7}/{total} lines"
         if st is not None:
             pos = st.wpos or st.mpos
             state = st.state + (f":{st.substate}" if st.substate is not None else "")
@@ -126,14 +123,14 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
             console.print(f"[yellow]warning:[/yellow] {w}" if not w.startswith("notice") else w)
         resume = None
         if resume_from is not None:
-            resume, window = link.resume_point(lines)
-            lines = (l for l in _chain(window, lines) if l.seq >= resume.seq)
+            resume, _ = link.resume_point(lines)
+            lines = lines[resume.seq - lines[0].seq:]
             console.print(f"machine at X{resume.at_mm[0]:.3f} Y{resume.at_mm[1]:.3f} Z{resume.at_mm[2]:.3f}: "
                           f"continuing from stream line {resume.seq}"
                           + (" (inside it)" if resume.partial else ""))
         ledger = Ledger(resume.seq if resume else 1)
         with Live(Text(""), console=console, refresh_per_second=5) as live:
-            kb, update = _progress(live)
+            kb, update = _progress(live, lines[-1].seq if lines else 0)
             with kb:
                 result = link.stream(lines, ledger, resume=resume, on_progress=update)
     except (LinkError, ResumeError) as err:
@@ -147,11 +144,6 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
     console.print(f"done: {ledger.last_acknowledged - ledger.first + 1} lines acknowledged, machine "
                   f"{st.state} at X{st.wpos[0]:.3f} Y{st.wpos[1]:.3f} Z{st.wpos[2]:.3f}"
                   + (f"; {len(link.garbage)} garbage lines ignored" if link.garbage else ""))
-
-
-def _chain(first, rest):
-    yield from first
-    yield from rest
 
 
 def _stream_increments(port, baud, program, config) -> None:
