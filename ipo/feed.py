@@ -59,7 +59,7 @@ class FeedPlanner:
         self.pos = np.array(start_mm, dtype=float)
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
         # look-ahead state: pieces and samples not yet emitted, and where the machine is
-        self._motions: list[Motion] = []
+        self._motions: list[tuple] = []  # pending (entity, rpm, nurbs index), as Motion
         self._trim = 0.0
         self._pieces: Pieces | None = None
         self._piece_base = 0  # global index of self._pieces[0]
@@ -101,15 +101,16 @@ class FeedPlanner:
     # ---- entity intake -------------------------------------------------------------
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
         """Period batches and events in order; the machine ends standing still."""
+        motions = self._motions  # kept as the same list object: cleared in place
         for e in entities:
             tp = type(e)
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
                     continue  # a move to where the machine stands: no motion, no corner
-                if self._smp is None and not self._motions:
+                if not motions and self._smp is None:
                     self._check_start(e)
-                self._motions.append(Motion(e, self._rpm, -1))
-                if len(self._motions) > _BUILD_CHUNK:
+                motions.append((e, self._rpm, -1))
+                if len(motions) > _BUILD_CHUNK:
                     self._build(final=False)
                     yield from self._plan(final=False)
             elif isinstance(e, MOTION_TYPES):
@@ -181,9 +182,9 @@ class FeedPlanner:
                          blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
                          nurbs_length=lambda i: self._nurbs[i].table.length, add_blend=self._add_nurbs)
         if final:
-            self._motions = []
+            motions.clear()
         else:
-            self._motions = [motions[-1]]
+            del motions[:-1]
             self._trim = trim
         self._append(pc)
 
@@ -429,10 +430,11 @@ class FeedPlanner:
             n -= k
 
 
-def _own_length(m: Motion, nurbs: dict) -> float:
-    e = m.entity
+def _own_length(m: tuple, nurbs: dict) -> float:
+    """Arc length of a pending motion (entity, rpm, nurbs index)."""
+    e = m[0]
     if isinstance(e, Nurbs):
-        return nurbs[m.nurbs_index].table.length
+        return nurbs[m[2]].table.length
     if isinstance(e, Arc):
         a, b, n = PLANE_AXES[e.plane]
         return float(np.hypot(e.radius_mm * abs(e.sweep_rad), e.end[n] - e.start[n]))

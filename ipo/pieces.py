@@ -19,6 +19,7 @@ not blended; the planner limits the speed there instead.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -99,8 +100,7 @@ def _curved_frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.nd
     return t, k
 
 
-@dataclass(slots=True)
-class Motion:
+class Motion(NamedTuple):
     """A motion entity with the state it runs under, as the builder receives it."""
 
     entity: Line | Rapid | Arc | Nurbs
@@ -142,24 +142,21 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     `add_blend(nurbs_entity)` registers a corner blend curve and returns its index.
     """
     n = len(motions)
-    ents = [m.entity for m in motions]
-    tols: dict = {}
-
-    def info(m: Motion):
-        e = m.entity
-        path = e.path
-        tol = tols.get(id(path))
-        if tol is None:
-            tol = tols[id(path)] = (0.0 if path.exact_stop else blend_default_mm if path.blend_tol_mm is None
-                                else float(path.blend_tol_mm))
-        rapid = type(e) is Rapid
-        return (*e.start, *e.end, rapid_mm_s if rapid else e.feed_mm_s, e.line, m.rpm, tol,
-                path.exact_stop, rapid, rapid or type(e) is Line)
-
-    table = np.array([info(m) for m in motions], dtype=float).reshape(n, 13)
-    start, end, feed, rpm, tol = table[:, 0:3], table[:, 3:6], table[:, 6], table[:, 8], table[:, 9]
-    lines = table[:, 7].astype(np.int32)
-    exact, rapid, line_like = table[:, 10] > 0, table[:, 11] > 0, table[:, 12] > 0
+    ents = [m[0] for m in motions]
+    tol_of: dict = {}
+    for path in {id(e.path): e.path for e in ents}.values():
+        tol_of[id(path)] = (0.0 if path.exact_stop else blend_default_mm if path.blend_tol_mm is None
+                            else float(path.blend_tol_mm))
+    kinds = [type(e) for e in ents]
+    pts = np.array([e.start + e.end for e in ents], dtype=float).reshape(n, 6)
+    start, end = pts[:, :3], pts[:, 3:]
+    rapid = np.array([k is Rapid for k in kinds])
+    line_like = rapid | np.array([k is Line for k in kinds])
+    feed = np.array([rapid_mm_s if e.feed_mm_s is None else e.feed_mm_s for e in ents], dtype=float)
+    lines = np.array([e.line for e in ents], dtype=np.int32)
+    rpm = np.array([m[1] for m in motions], dtype=float)
+    tol = np.array([tol_of[id(e.path)] for e in ents])
+    exact = np.array([e.path.exact_stop for e in ents])
     vec = end - start
     length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
@@ -240,7 +237,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             _copy_trimmed_arc(pc, slot, arcs, i, trim_in[i], trim_out[i])
         else:
             pc.kind[slot] = KIND_NURBS
-            pc.nurbs[slot] = motions[i].nurbs_index
+            pc.nurbs[slot] = motions[i][2]
             pc.length[slot] = nurbs_length(motions[i].nurbs_index)
             pc.c[slot] = start[i]
     keep = pc.length > 0
