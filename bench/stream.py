@@ -11,7 +11,8 @@ of NURBS programs turned into G1 segments by vcnc's IPO.
    and the largest distance from the exact curve (dense samples, 200 per segment)
    to the polyline sent, at the machine's chord tolerance as merge tolerance and at
    half of it. The vertices are the IPO's period points, quantised to the BLU, so
-   the deviation is the merge tolerance plus up to half a BLU per axis.
+   the deviation is the merge tolerance plus up to half a BLU per axis. Then what
+   the stream asks of a 115200-baud grbl with 15 planner blocks (machine.grbl.budget).
 
 Usage: python bench/stream.py
 """
@@ -31,6 +32,7 @@ from ipo.config import default_config  # noqa: E402
 from ipo.nurbs import curve_points  # noqa: E402
 from ipr import parse_file  # noqa: E402
 from ipr.entities import Line, Nurbs, Rapid  # noqa: E402
+from machine.grbl.budget import stream_demand  # noqa: E402
 from machine.grbl.ledger import Ledger  # noqa: E402
 from machine.grbl.link import GrblLink  # noqa: E402
 from machine.grbl.program import stream_lines  # noqa: E402
@@ -130,7 +132,11 @@ def nurbs_programs() -> None:
             lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True, merge_tol_mm=tol_mm))
             t_gen = time.perf_counter() - t0
             _report(path, prog.entities, source, lines, tol_mm)
-            print(f"  {path.name}: {len(lines)} stream lines generated in {t_gen:.2f} s")
+            d = stream_demand(lines, baud=115200, planner_blocks=15,
+                              accel_mm_s2=min(a.max_accel_mm_s2 for a in CFG.axes))
+            print(f"  {path.name}: {len(lines)} stream lines generated in {t_gen:.2f} s; at the planned feed the "
+                  f"stream needs up to {d.peak_bytes_s:.0f} bytes/s (115200 baud: {d.capacity_bytes_s:.0f}); "
+                  f"grbl's 15-block look-ahead allows {d.slowest_ratio * 100:.0f} % of the planned feed at worst")
 
 
 def _report(path, ents, source, lines, tol_mm) -> None:

@@ -164,3 +164,24 @@ def test_resume_inside_an_arc_recomputes_ijk_from_the_machine_position():
     point = find_resume([arc], p)
     assert point.partial and point.seq == 3
     assert resume_text(arc, p) == (f"G17F600.0000G3X0.0000Y10.0000Z0.0000I{-p[0]:.4f}J{-p[1]:.4f}")
+
+
+def test_stream_demand_by_hand():
+    from machine.grbl.budget import stream_demand
+
+    # 100 moves of 0.1 mm at 6000 mm/min (100 mm/s): 1000 lines/s of 34 characters + newline
+    ents, p = [], (10.0, 0.0, 0.0)
+    for i in range(100):
+        q = (round(10.0 + 0.1 * (i + 1), 4), 0.0, 0.0)
+        ents.append(Line(i + 1, p, q, 100.0))
+        p = q
+    lines = list(stream_lines(ents, CFG, start_mm=(10.0, 0.0, 0.0)))
+    assert {len(l.text) for l in lines[1:]} == {34}
+    d = stream_demand(lines, baud=115200, planner_blocks=15, accel_mm_s2=1000.0)
+    assert d.peak_bytes_s == pytest.approx(35 * 1000.0)
+    assert d.capacity_bytes_s == 11520.0
+    # 15 blocks span 1.5 mm: stopping within them allows sqrt(2 * 1000 * 1.5) = 54.77 mm/s
+    assert d.slowest_ratio == pytest.approx(math.sqrt(3000.0) / 100.0)
+    assert len(d.warnings) == 2 and "35000 bytes/s" in d.warnings[0] and "3286 mm/min" in d.warnings[1]
+    slow = stream_demand(lines, baud=1_000_000, planner_blocks=15, accel_mm_s2=1e6)
+    assert slow.warnings == []

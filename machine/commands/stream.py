@@ -105,6 +105,7 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
     from rich.live import Live
     from rich.text import Text
 
+    from machine.grbl.budget import stream_demand
     from machine.grbl.ledger import Ledger
     from machine.grbl.link import GrblLink, LinkError
     from machine.grbl.resume import ResumeError
@@ -119,7 +120,9 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
         info = link.connect(config, unlock=unlock)
         console.print(f"{info.banner}  build {info.build.version}  RX {link.rx_size} bytes, "
                       f"{link.planner_blocks} planner blocks")
-        for w in info.warnings + [f"notice: {n}" for n in notices]:
+        demand = stream_demand(lines, baud=baud, planner_blocks=link.planner_blocks,
+                               accel_mm_s2=min(a.max_accel_mm_s2 for a in config.axes))
+        for w in info.warnings + demand.warnings + [f"notice: {n}" for n in notices]:
             console.print(f"[yellow]warning:[/yellow] {w}" if not w.startswith("notice") else w)
         resume = None
         if resume_from is not None:
