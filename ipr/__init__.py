@@ -11,7 +11,7 @@ docs/gcode-errors.md; corner cases of the dialect: docs/gcode-notes.md).
 
 Modules: gcode.lark + syntax.py (grammar), shapes.py (fast path: line shapes parsed once),
 block.py (modal-group checks), interpreter.py (lines -> blocks, atomic commit), execute.py
-(a block's effects), linear.py (plain G0/G1 fast path), arcs.py, nurbs_blocks.py +
+(a block's effects), plain.py (plain G0..G3 fast path), arcs.py, nurbs_blocks.py +
 nurbs_groups.py (NURBS block forms), expressions.py, modal.py (state, Setup), errors.py.
 
 Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar

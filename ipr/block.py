@@ -38,6 +38,7 @@ _WHY_NOT = {
 LETTERS = frozenset("GMXYZIJKRFPQSTHLNO")
 AXES = "XYZ"
 _LINEAR_LETTERS = frozenset("XYZFN")
+_ARC_LETTERS = frozenset("XYZIJKRFN")
 NURBS_MOTIONS = (52, 62)
 
 
@@ -49,7 +50,8 @@ class BlockSpec:
     axes: the axis letters present, in XYZ order.
     """
 
-    __slots__ = ("g", "m", "index", "where", "axes", "usage", "motion", "f_index", "axis_idx", "linear")
+    __slots__ = ("g", "m", "index", "where", "axes", "usage", "motion", "f_index", "axis_idx", "linear",
+                 "plain_arc")
 
     def __init__(self, g, m, index, where, axes):
         self.g = g
@@ -64,6 +66,10 @@ class BlockSpec:
         # a plain G0/G1 block: the interpreter's short path
         self.linear = (g.keys() <= {"motion"} and self.motion in (None, 0, 10) and not m
                        and index.keys() <= _LINEAR_LETTERS)
+        # a G2/G3 block with only axis words, one arc format, F and N: ipr.plain's short path
+        self.plain_arc = (g.keys() <= {"motion"} and self.motion in (None, 20, 30) and not m
+                          and index.keys() <= _ARC_LETTERS and (self.motion is not None or bool(axes))
+                          and ("R" in index) != any(k in index for k in "IJK"))
 
     def moves(self, motion: int | None) -> bool:
         """Does the block execute its (modal) motion?"""

@@ -3,8 +3,8 @@
 Per line: ipr.syntax gives the words (through the shape cache for simple lines),
 ipr.block checks them against the modal groups (cached per signature), and the block
 is executed on a staged view of the state, committed only if nothing failed. Plain
-G0/G1 blocks (axis words, F, N only) run through a function generated per line shape
-(ipr.linear), which hands anything unusual back to the general path.
+G0..G3 blocks run through a function made per line shape (ipr.plain), which hands
+anything unusual back to the general path.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from ipr.entities import Diagnostic, GCodeError, Message
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
-from ipr.linear import compile_step
+from ipr.plain import compile_arc_step, compile_step
 from ipr.modal import ModalState, Setup, Staged
 from ipr.shapes import MARK, expression_block, split_parts, template_for
 from ipr.syntax import LineSyntaxError, parse_line_columns
@@ -83,10 +83,17 @@ class Interpreter:
         else:
             spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
             step = None
-            if spec.__class__ is BlockSpec and spec.linear and not tpl.delete:
+            if spec.__class__ is BlockSpec and not tpl.delete and (spec.linear or spec.plain_arc):
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
-                step = compile_step(spec.motion, part.get(spec.f_index),
-                                    {k: part[i] for k, i in spec.axis_idx})
+                axis_parts = {k: part[i] for k, i in spec.axis_idx}
+                if spec.linear:
+                    step = compile_step(spec.motion, part.get(spec.f_index), axis_parts)
+                else:
+                    idx = spec.index
+                    offsets = {k: part[idx[letter]] for k, letter in enumerate("IJK") if letter in idx}
+                    word = idx["R"] if "R" in idx else idx[next(c for c in "IJK" if c in idx)]
+                    step = compile_arc_step(spec.motion, part.get(spec.f_index), axis_parts, offsets,
+                                            part.get(idx.get("R")), word)
             plan = (tpl, spec, step)
         self._plans[shape] = plan
         return plan

@@ -1,5 +1,5 @@
-"""The interpreter's shortcuts change nothing: with the generated G0/G1 step functions
-(ipr.linear) and the shape templates (ipr.shapes) switched off, every program gives the
+"""The interpreter's shortcuts change nothing: with the G0..G3 step functions (ipr.plain)
+and the shape templates (ipr.shapes) switched off, every program gives the
 same entities, warnings and errors through the general path and the full grammar."""
 from __future__ import annotations
 
@@ -30,6 +30,7 @@ def _outcome(text: str):
 
 def _general_only(monkeypatch):
     monkeypatch.setattr(ipr.interpreter, "compile_step", lambda *a: None)
+    monkeypatch.setattr(ipr.interpreter, "compile_arc_step", lambda *a: None)
     monkeypatch.setattr(ipr.interpreter, "template_for", lambda shape: None)
     monkeypatch.setattr(ipr.interpreter, "expression_block", lambda text: None)
 
@@ -43,7 +44,13 @@ def _random_program(seed: int) -> str:
             lines.append(rng.choice(["G90", "G91", "G20", "G21", "G92 X1 Y2", "G92.1", "G55", "G54",
                                      "G61", "G64 P0.01", "F0", "F120", "G80", "M3 S100", "G18", "G17"]))
         elif r < 0.1:
-            lines.append(rng.choice(["G1 X1 F-5", "X1 Y1 I2", "G0 X1 X2", "/G1 X100", "N7 G1 Z-1"]))
+            lines.append(rng.choice(["G1 X1 F-5", "X1 Y1 I2", "G0 X1 X2", "/G1 X100", "N7 G1 Z-1", "G19",
+                                     "G90.1", "G91.1"]))
+        elif r < 0.25:   # arcs: full circles (valid in most planes), helices, radius format (often not)
+            lines.append(rng.choice(["G2 I3", "G3 J-2 Z1", "G2 K1.5 F200", "G3 I1 J1", "G2 I0.5 X0",
+                                     f"G3 X{rng.uniform(-9, 9):.3f} Y{rng.uniform(-9, 9):.3f} R{rng.uniform(-40, 40):.3f}",
+                                     f"G2 Z{rng.uniform(-9, 9):.2f} X{rng.uniform(-9, 9):.2f} R{rng.uniform(-40, 40):.2f}",
+                                     "I2", f" X{rng.uniform(-9, 9):.2f} R30"]))
         else:
             words = [f"{a}{rng.uniform(-50, 50):.{rng.randint(0, 4)}f}" for a in "XYZ" if rng.random() < 0.6]
             head = rng.choice(["", "", "G1 ", "G0 ", "G01 ", "g1"])
@@ -56,7 +63,7 @@ def _random_program(seed: int) -> str:
 def test_random_programs_same_through_general_path(seed, monkeypatch):
     text = _random_program(seed)
     fast = _outcome(text)
-    assert len(fast[0]) > 300 and fast[2]     # moves and errors both
+    assert len(fast[0]) > 200 and fast[2]     # moves and errors both
     _general_only(monkeypatch)
     assert _outcome(text) == fast
 

@@ -1,0 +1,122 @@
+"""Plain G0/G1/G2/G3 blocks through one function per line shape.
+
+A plain block has only a G0..G3 code (or none), axis words, F, N and, for arcs, I/J/K or
+R; nearly all lines of CAM output are plain. For such a shape, `compile_step` and
+`compile_arc_step` make a function doing what ipr.execute.execute_block does with it —
+F to mm/s, the end point from the axis words in the active distance mode, the Line,
+Rapid or Arc (ipr.arcs.make_arc, the same geometry and checks), the new position, feed
+and motion mode — with the numbers read straight from the line's parts
+(ipr.shapes.split_parts). Where the block needs more (another motion mode, a negative or
+zero feed, G90.1, an arc format the plane does not allow, a NURBS group open) the
+function returns False having changed nothing, and the interpreter runs the block on the
+general path, which also reports the errors. tests/test_ipr_paths.py compares the two.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from ipr.arcs import make_arc
+from ipr.entities import PLANE_AXES, Line, Rapid
+
+_TEMPLATE = """\
+def step(p, n, s, append):
+    if s.nurbs is not None:
+        return False
+    m = {motion}
+    if m != 10 and m != 0:
+        return False
+    u = s.unit
+    f = {feed}
+    if f < 0.0 or m == 10 and f == 0.0 and {has_axes}:
+        return False
+{move}    s.feed_mm_s = f
+    s.motion = m
+    return True
+"""
+_MOVE = """\
+    pos = s.pos
+    if s.absolute:
+        o = s.offset
+        end = ({absolute},)
+    else:
+        end = ({incremental},)
+    if m == 10:
+        append(Line(n, pos, end, f, s.path))
+    else:
+        append(Rapid(n, pos, end, s.path))
+    s.pos = end
+"""
+
+
+def _end_sources(axis_parts: dict[int, int]) -> tuple[str, str]:
+    """Source of the end point from `pos`, parts `p`, unit `u`, offset `o`: G90 and G91."""
+    absolute, incremental = [], []
+    for k in range(3):
+        if k in axis_parts:
+            absolute.append(f"float(p[{axis_parts[k]}]) * u + o[{k}]")
+            incremental.append(f"pos[{k}] + float(p[{axis_parts[k]}]) * u")
+        else:
+            absolute.append(f"pos[{k}]")
+            incremental.append(f"pos[{k}]")
+    return ", ".join(absolute), ", ".join(incremental)
+
+
+def compile_step(motion: int | None, f_part: int | None,
+                 axis_parts: dict[int, int]) -> Callable[[list, int, object, Callable], bool]:
+    """The step function of a plain G0/G1 shape: `motion` is its code (None: modal),
+    `f_part` the index of F's number in the parts, `axis_parts` axis 0..2 -> index.
+    step(parts, line, state, append) -> handled."""
+    absolute, incremental = _end_sources(axis_parts)
+    move = _MOVE.format(absolute=absolute, incremental=incremental)
+    source = _TEMPLATE.format(
+        motion="s.motion" if motion is None else motion,
+        feed="s.feed_mm_s" if f_part is None else f"float(p[{f_part}]) * u / 60.0",
+        has_axes=bool(axis_parts), move=move if axis_parts else "")
+    namespace = {"Line": Line, "Rapid": Rapid, "float": float}
+    exec(source, namespace)
+    return namespace["step"]
+
+
+def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[int, int],
+                     offset_parts: dict[int, int], r_part: int | None, word: int):
+    """The step function of a plain G2/G3 shape. `offset_parts` maps the axis of each of
+    I/J/K present to its index in the parts, `r_part` is R's; `word` is the word index the
+    general path gives arc errors (R, or the first of I/J/K present)."""
+    absolute, incremental = _end_sources(axis_parts)
+    namespace = {"float": float}
+    exec(f"def ends(p, pos, u, o):\n    return ({absolute},), ({incremental},)\n", namespace)
+    ends = namespace["ends"]
+    given_axes = set(axis_parts)
+
+    def step(p, n, s, append):
+        if s.nurbs is not None or s.arc_absolute:
+            return False
+        m = s.motion if motion is None else motion
+        if m != 20 and m != 30:
+            return False
+        u = s.unit
+        f = float(p[f_part]) * u / 60.0 if f_part is not None else s.feed_mm_s
+        if f <= 0.0:
+            return False
+        a, b, normal = PLANE_AXES[s.plane]
+        if r_part is None:
+            if normal in offset_parts or (a not in offset_parts and b not in offset_parts):
+                return False
+        elif a not in given_axes and b not in given_axes:
+            return False
+        pos = s.pos
+        end = ends(p, pos, u, s.offset)[0 if s.absolute else 1]
+        if r_part is None:
+            center = (pos[a] + (float(p[offset_parts[a]]) * u if a in offset_parts else 0.0),
+                      pos[b] + (float(p[offset_parts[b]]) * u if b in offset_parts else 0.0))
+            arc = make_arc(n, pos, end, s.plane, m == 30, f, s.path, center_ab=center, word=word, unit_mm=u)
+        else:
+            arc = make_arc(n, pos, end, s.plane, m == 30, f, s.path, radius_mm=float(p[r_part]) * u,
+                           word=word, unit_mm=u)
+        append(arc)
+        s.pos = end
+        s.feed_mm_s = f
+        s.motion = m
+        return True
+
+    return step
