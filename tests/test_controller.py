@@ -261,3 +261,17 @@ def test_the_machine_file_reaches_the_interpreter(tmp_path):
                                                         tool_lengths_mm={2: 5.0}))
     assert line.end == reference.motions()[1].end
     assert line.end[2] != pytest.approx(-4.0)  # the tool length moved Z
+
+
+def test_prefetch_keeps_order_and_reraises_the_planners_error():
+    from machine.realtime import prefetch
+
+    def planner():
+        yield from range(100)
+        raise ValueError("E-PLAN at line 7")
+
+    got = []
+    with pytest.raises(ValueError, match="line 7"):
+        for item in prefetch(planner(), depth=3):
+            got.append(item)
+    assert got == list(range(100))
