@@ -1,6 +1,6 @@
 """Benchmark of issue 7: G01 runs -> G06.2 with 001's rational B-spline fit.
 
-    python bench/fit.py [--quick]
+    python bench/fit.py [conversion] [rational] [compare] [--quick]     (all three parts by default)
 
 Prints, for three corpus programs and the finishing program at T = 1 um and 10 um:
 blocks and bytes before/after and their ratios, the largest deviation, the fit time
@@ -27,6 +27,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 CORPUS = ROOT.parent / "shared" / "corpus" / "linuxcnc"
 STELLA_LINES = 4000
+# corpus G01 runs (by first line) that a fit with at most 60 control points can bring within 10 um
+CORPUS_RUNS = {"g1_3d_chips.ngc": (106, 206, 976), "g1_lhchips4.ngc": (170, 338)}
+MACHINE = ROOT / "programs" / "finish_machine.toml"
 TOLS_MM = (0.001, 0.01)
 
 from ipo.fit_tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
@@ -115,12 +118,14 @@ def rational_table(quick: bool) -> None:
              ("semicircle R10, 200 pts", arc(10, 0, np.pi, 200), 0.001),
              ("3/4 circle R5, 200 pts", arc(5, 0, 1.5 * np.pi, 200), 0.001),
              ("half ellipse 12 x 5, 200 pts", np.c_[12 * np.cos(t), 5 * np.sin(t), np.zeros(200)], 0.001)]
-    lh = CORPUS / "g1_lhchips4.ngc"
-    if lh.exists():
-        runs = split_runs(parse_text(lh.read_text()).entities)
-        longest = sorted(runs, key=len, reverse=True)[: (1 if quick else 3)]
-        for r in longest:
-            cases.append((f"lhchips4 run at line {r[0].line}, {len(r)} moves", densify(run_vertices(r)), 0.01))
+    for name, first_lines in CORPUS_RUNS.items():
+        path = CORPUS / name
+        if not path.exists():
+            continue
+        runs = {r[0].line: r for r in split_runs(parse_text(path.read_text()).entities)}
+        for line in first_lines[: (1 if quick else None)]:
+            r = runs[line]
+            cases.append((f"{name[3:-4]} run at line {line}, {len(r)} moves", densify(run_vertices(r)), 0.01))
     print(f"{'data':40s} {'T um':>5s} {'rational':>9s} {'no weights':>11s} {'geomdl':>7s} {'s':>6s}")
     for name, q, tol in cases:
         t0 = time.perf_counter()
@@ -134,23 +139,27 @@ def rational_table(quick: bool) -> None:
 
 
 def compare_table() -> None:
-    print("\n== vcnc compare programs/finish_g01.nc programs/finish_nurbs.nc --machine programs/machine.toml")
+    print(f"\n== vcnc compare programs/finish_g01.nc programs/finish_nurbs.nc --machine programs/{MACHINE.name}")
     try:
         from machine.commands.compare import compare_programs, format_table
     except ImportError as err:
         print(f"  compare not available: {err}")
         return
     res = compare_programs(ROOT / "programs" / "finish_g01.nc", ROOT / "programs" / "finish_nurbs.nc",
-                           ROOT / "programs" / "machine.toml")
+                           MACHINE)
     print(format_table(res))
 
 
 def main() -> None:
     quick = "--quick" in sys.argv
+    parts = [a for a in sys.argv[1:] if not a.startswith("--")] or ["conversion", "rational", "compare"]
     t0 = time.perf_counter()
-    conversion_table(quick)
-    rational_table(quick)
-    compare_table()
+    if "conversion" in parts:
+        conversion_table(quick)
+    if "rational" in parts:
+        rational_table(quick)
+    if "compare" in parts:
+        compare_table()
     print(f"\nbench total {time.perf_counter() - t0:.0f} s")
 
 

@@ -121,6 +121,7 @@ def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> RationalFit | None
     first success, and bisection below it, each fit starting from the parameters
     of the best fit so far."""
     lo = s.degree + 1
+    m_max = min(m_max, len(q))
     if m_max < lo:
         return None
     best, ok = _try(q, m_max, s, None)
