@@ -29,6 +29,13 @@ class Setup:
     tool_lengths_mm: dict[int, float] = field(default_factory=dict)
     block_delete: bool = True
 
+    @classmethod
+    def from_machine(cls, config) -> Setup:
+        """The Setup of a machine configuration (ipo.config.MachineConfig, duck-typed:
+        `work_offsets_mm` and `tools` with `length_mm`)."""
+        return cls(work_offsets_mm=dict(config.work_offsets_mm),
+                   tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()})
+
     def work_offset(self, code10: int) -> tuple[float, float, float]:
         name = f"G{code10 // 10}"
         return tuple(float(v) for v in self.work_offsets_mm.get(name, ZERO3))

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -76,3 +77,15 @@ def test_warnings_go_to_stderr_and_do_not_fail(tmp_path):
     assert result.exit_code == 0
     assert result.stderr.startswith(f"{path}:1:5: warning[W-TOOL-UNKNOWN]")
     assert json.loads(result.stdout)[0]["end"] == [0, 0, 1]
+
+
+def test_machine_file_gives_offsets_and_tools(tmp_path):
+    machine = tmp_path / "m.toml"
+    text = (Path(__file__).resolve().parents[1] / "programs" / "machine.toml").read_text()
+    machine.write_text(text.replace("G54 = [0.0, 0.0, 0.0]", "G54 = [0.0, 0.0, 0.0]\nG55 = [100.0, 0.0, -5.0]")
+                       .replace("length_mm = 0.0", "length_mm = 40.0", 1))
+    result, _ = _run(tmp_path, "G55 G0 X1\nG43 H1 G0 Z0\n", "--json", "--machine", str(machine))
+    assert result.exit_code == 0, result.output
+    assert [i["end"] for i in json.loads(result.stdout)] == [[101, 0, 0], [101, 0, 35]]
+    result, _ = _run(tmp_path, "G0 X1\n", "--machine", str(tmp_path / "missing.toml"))
+    assert result.exit_code != 0 and "missing.toml" in result.output

@@ -1,4 +1,5 @@
-"""`vcnc parse FILE [--json] [--all-errors]`: check a part program and show its entities.
+"""`vcnc parse FILE [--json] [--all-errors] [--machine TOML]`: check a part program and show
+its entities, with the work offsets and tool lengths of the machine file (default: built in).
 
 Exit 0 when the program is valid, 1 when it has errors (printed on stderr as
 `file:line:col: error[CODE]: message`). Warnings and notices go to stderr too.
@@ -104,16 +105,33 @@ def _summary(program) -> None:
     Console().print(table)
 
 
+def _setup(machine_file: str | None):
+    """Work offsets and tool lengths of the machine file (default: the built-in machine)."""
+    from ipo.config import ConfigError, default_config, load_config
+    from ipr import Setup
+
+    try:
+        config = default_config() if machine_file is None else load_config(machine_file)
+    except ConfigError as err:
+        raise click.ClickException(f"machine file {machine_file or '(default)'}: {err}") from None
+    except OSError as err:
+        raise click.ClickException(f"machine file {machine_file}: {err.strerror or err}") from None
+    return Setup.from_machine(config)
+
+
 @click.command("parse")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="print the entities as a JSON array")
 @click.option("--all-errors", is_flag=True, help="report every error, not just the first")
-def command(file: str, as_json: bool, all_errors: bool) -> None:
+@click.option("--machine", "machine_file", type=click.Path(dir_okay=False),
+              help="machine TOML for work offsets and tool lengths (default: built in)")
+def command(file: str, as_json: bool, all_errors: bool, machine_file: str | None) -> None:
     """Check FILE and print its motion entities (or a summary)."""
     from ipr import GCodeError, parse_file
 
+    setup = _setup(machine_file)
     try:
-        program = parse_file(file, all_errors=all_errors)
+        program = parse_file(file, setup=setup, all_errors=all_errors)
     except GCodeError as err:
         for diag in err.diagnostics:
             click.echo(str(diag), err=True)
