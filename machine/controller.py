@@ -69,8 +69,8 @@ class RunResult:
     max_chord_error_um: float
     max_contour_error_um: float | None
     deadline_misses: int | None
-    realtime_factor: float
-    wall_s: float
+    realtime_factor: float  # simulated time / (check_s + wall_s): parse, check, plan, interpolate, drive
+    wall_s: float  # the run: plan, interpolate, drive (and the pacing in real-time mode)
     check_s: float
     program_stops: list[int] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
@@ -213,5 +213,6 @@ class Controller:
             max_chord_error_um=st.max_chord_error_mm * 1e3,
             max_contour_error_um=None if st.max_contour_error_mm is None else st.max_contour_error_mm * 1e3,
             deadline_misses=None if player is None else player.deadline_misses,
-            realtime_factor=sim / wall if wall > 0 else math.inf, wall_s=wall, check_s=self.check_s,
+            realtime_factor=sim / (wall + self.check_s) if wall > 0 else math.inf,
+            wall_s=wall, check_s=self.check_s,
             program_stops=stops, messages=messages, fault=fault)

@@ -14,7 +14,6 @@ from machine.extents import arc_extent, nurbs_extent, travel_violations
 from machine.realtime import Player
 from machine.trace import MemoryTrace
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def arc_samples(arc: Arc, n=200001):
