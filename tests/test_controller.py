@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +12,6 @@ from machine.drive import Drive, DriveLimits
 from machine.extents import arc_extent, nurbs_extent, travel_violations
 from machine.realtime import Player
 from machine.trace import MemoryTrace
-
 
 
 def arc_samples(arc: Arc, n=200001):
