@@ -11,7 +11,9 @@ measurements are those a drive could make from its own command stream:
   and rounds off instantaneous steps;
 - chord error, the sagitta between consecutive commanded points, estimated from
   the circle through three consecutive points (exact on arcs; on straight lines the
-  BLU rounding alone shows up as at most about BLU/3);
+  BLU rounding alone shows up as at most about BLU/3). Chords shorter than
+  MIN_CHORD_BLU are not measured: there the rounding decides the direction of the
+  chord and the estimate says nothing (at 1 µm, 1 ms that is below 8 mm/s);
 - with a servo model, the actual positions and the contour error.
 A travel-limit violation stops the drive at the last period inside the limits.
 """
@@ -27,6 +29,7 @@ from ipo.period import PeriodBatch
 from machine.servo import ServoModel
 
 AXES = "XYZ"
+MIN_CHORD_BLU = 8
 
 
 class TravelLimitError(Exception):
@@ -162,7 +165,10 @@ def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, check_jerk, peak, cou
             for r in range(3):
                 for a in range(3):
                     p[r, a] = ext[i - 2 + r, a] * blu
-            peak[10] = max(peak[10], _sagitta(p, 0))
+            chord_in = math.sqrt((p[1, 0] - p[0, 0])**2 + (p[1, 1] - p[0, 1])**2 + (p[1, 2] - p[0, 2])**2)
+            chord_out = math.sqrt((p[2, 0] - p[1, 0])**2 + (p[2, 1] - p[1, 1])**2 + (p[2, 2] - p[1, 2])**2)
+            if min(chord_in, chord_out) >= MIN_CHORD_BLU * blu:
+                peak[10] = max(peak[10], _sagitta(p, 0))
 
 
 class Drive:

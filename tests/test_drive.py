@@ -212,3 +212,14 @@ def test_trace_files_round_trip(tmp_path, suffix):
 def test_unknown_trace_format_is_refused(tmp_path):
     with pytest.raises(ValueError, match="use .npz or .csv"):
         open_writer(tmp_path / "t.txt", {}, servo=False)
+
+
+def test_creeping_chords_a_few_blu_long_report_no_chord_error():
+    # a straight move at 3 µm per period, at an angle the BLU grid cannot follow exactly
+    n = 400
+    s = 3e-3 * np.arange(1, n + 1)
+    pts = np.column_stack((s * math.cos(0.3), s * math.sin(0.3), np.zeros(n)))
+    drive = Drive(limits(blu_mm=1e-3))
+    for b in batches(pts, 1e-3):
+        drive.receive(b)
+    assert drive.stats.max_chord_error_mm == 0.0
