@@ -151,7 +151,13 @@ def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rati
     w = np.ones(n_ctrl)
     n_pts = sum(len(q) for q in sections)
     spans = SpanPolynomials(knots, degree)
-    history, best, worst_prev = [], None, np.inf
+    # the weights-1 solve is a candidate too: with as many control points as points it interpolates,
+    # and a weight step from there can only add rounding-noise weights (and poles) to it
+    n_mats = [basis_matrix(knots, degree, u, n_ctrl) for u in us]
+    wps = [_wp(n, q, w) for n, q in zip(n_mats, sections)]
+    errs = _errors(n_mats, sections, wps, w)
+    best = (float(np.sqrt(sum(np.sum(e**2) for e in errs) / max(n_pts - 1, 1))), wps, w.copy(), us, errs)
+    history, worst_prev, converged = [], np.inf, False
     for it in range(max_iter):
         n_mats = [basis_matrix(knots, degree, u, n_ctrl) for u in us]
         wps = [_wp(n, q, w) for n, q in zip(n_mats, sections)]
@@ -161,9 +167,9 @@ def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rati
         n_mats = [basis_matrix(knots, degree, u, n_ctrl) for u in us]
         errs = _errors(n_mats, sections, wps, w)
         f_l = float(np.sqrt(sum(np.sum(e**2) for e in errs) / max(n_pts - 1, 1)))  # 001 App. I step 5
-        if best is None or f_l < best[0]:
+        if f_l < best[0]:
             best = (f_l, [wp.copy() for wp in wps], w.copy(), [u.copy() for u in us], errs)
-        stop = bool(history) and history[-1] - f_l < rel_delta * history[-1]
+        converged = stop = bool(history) and history[-1] - f_l < rel_delta * history[-1]
         worst = max(float(np.max(np.sum(e**2, axis=1))) for e in errs) ** 0.5
         if give_up_above is not None and worst - (max_iter - it - 1) * max(worst_prev - worst, 0.0) > give_up_above:
             stop = True
@@ -172,7 +178,8 @@ def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rati
         if stop:
             break
     _, wps, w, us, errs = best
-    fits = [RationalFit(degree, knots, w, wp / w[:, None], u, np.array(history), True) for wp, u in zip(wps, us)]
+    fits = [RationalFit(degree, knots, w, wp / w[:, None], u, np.array(history), converged)
+            for wp, u in zip(wps, us)]
     max_err = np.array([np.max(np.linalg.norm(e, axis=1)) for e in errs])
     rms = np.array([np.sqrt(np.sum(e**2) / max(len(e) - 1, 1)) for e in errs])
     return SectionFits(fits, n_ctrl, degree, rational, max_err, rms, np.array(history))
