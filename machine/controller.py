@@ -82,6 +82,7 @@ class RunResult:
                     "realtime_factor", "wall_s", "check_s"):
             if out[key] is not None:
                 out[key] = round(float(out[key]), 6)
+        out["position_mm"] = [round(v, 6) for v in self.position_mm]
         return out
 
 
