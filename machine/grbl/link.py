@@ -266,7 +266,7 @@ class GrblLink:
                         result.fault = Fault("alarm", f"grbl ALARM:{r.code}: {P.alarm_meaning(r.code)} "
                                              f"Clear it with $X (or home, or reset) before resuming.", 0, 0)
                     elif r.kind == "banner":
-                        result.fault = Fault("alarm", "grbl reset itself during the stream", 0, 0)
+                        result.fault = Fault("alarm", "grbl was reset during the stream (0x18, its reset pin or power)", 0, 0)
                         ledger.discard_waiting()
                     elif r.kind == "status" and draining:
                         idle = self.status.state == "Idle"
