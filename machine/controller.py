@@ -139,6 +139,7 @@ class Controller:
             from ipo.feed import plan_periods
             self.planner = plan_periods
         drive = self.make_drive(program)
+        drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time
         deliver = player.play if player is not None else drive.receive
         if player is not None:
             player.attach(drive)

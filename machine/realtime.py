@@ -169,7 +169,6 @@ class Player:
         self.out = np.empty((self.chunk, 3))
         self.idx = np.empty(self.chunk, np.int64)
         self.scales = np.empty(self.chunk)
-        drive.warm_up()
         _resample(self.pts, 0.0, 0.0, 0.0, 0.0, 1, True, self.out, self.idx, self.scales)
         self.k = 0  # periods delivered
         self.t0 = None  # the clock starts with the first chunk: planning the first batch is start-up
