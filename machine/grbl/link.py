@@ -203,8 +203,9 @@ class GrblLink:
         if settings.get(13, 0.0):
             warnings.append("grbl reports in inches ($13=1); vcnc reads positions as mm")
         if 10 in settings and not int(settings[10]) & 2:
-            warnings.append(f"grbl's status reports carry no planner or RX buffer state ($10={int(settings[10])}); "
-                            f"set $10={int(settings[10]) | 2} to see planner blocks free")
+            mask = int(settings[10])
+            warnings.append(f"grbl's status reports carry no planner or RX buffer state ($10={mask}); "
+                            f"set $10={mask | 2} to see planner blocks free")
         return ConnectInfo(banner, settings, build, warnings, st.state == "Alarm")
 
     def stream(self, lines: Iterable[StreamLine], ledger: Ledger, *, resume: ResumePoint | None = None,
@@ -266,7 +267,8 @@ class GrblLink:
                         result.fault = Fault("alarm", f"grbl ALARM:{r.code}: {P.alarm_meaning(r.code)} "
                                              f"Clear it with $X (or home, or reset) before resuming.", 0, 0)
                     elif r.kind == "banner":
-                        result.fault = Fault("alarm", "grbl was reset during the stream (0x18, its reset pin or power)", 0, 0)
+                        result.fault = Fault("alarm", "grbl was reset during the stream (0x18, its reset pin "
+                                             "or power)", 0, 0)
                         ledger.discard_waiting()
                     elif r.kind == "status" and draining:
                         idle = self.status.state == "Idle"
@@ -355,7 +357,8 @@ class GrblLink:
         result.fault.message += (f"; machine stopped at X{st.wpos[0]:.3f} Y{st.wpos[1]:.3f} Z{st.wpos[2]:.3f}; "
                                  f"resume with --resume-from {result.resume.seq}")
 
-    def resume_point(self, lines: Iterable[StreamLine], max_lines: int = 256) -> tuple[ResumePoint, list[StreamLine]]:
+    def resume_point(self, lines: Iterable[StreamLine],
+                     max_lines: int = 256) -> tuple[ResumePoint, list[StreamLine]]:
         """Where the machine stands on the stream that starts with `lines` (a new session's
         --resume-from): returns the point and the lines read ahead for it."""
         st = self.query_status()
