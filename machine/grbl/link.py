@@ -226,7 +226,7 @@ class GrblLink:
                                  nxt.end_mm, True, nxt.restore, nxt.arc)
         recent: deque[StreamLine] = deque(maxlen=4 * (self.planner_blocks + 1) + self.rx_size)
         result = StreamResult(False, ledger)
-        budget = self.rx_size - 1  # grbl's ring buffer holds one byte less than its size
+        budget = self.rx_size - 1  # grbl 1.1 holds the full size (ring of size+1); some forks hold one less
         t_poll = t_prog = 0.0
         self._last_rx = time.monotonic()
         try:
