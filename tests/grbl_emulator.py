@@ -1,8 +1,9 @@
 """A TEST DOUBLE for grbl 1.1's serial protocol -- not grbl.
 
 It answers like grbl 1.1 as far as vcnc's link uses it: a 128-byte RX buffer (taking
-127 bytes, as the forks whose ring is the buffer size do; grbl 1.1 on AVR takes 128), a 15-block planner drained at a configurable rate
-(whole blocks: the position jumps to each block's end), ok / error:N / ALARM:N,
+127 bytes, as forks whose ring is the buffer size do; grbl 1.1 on AVR takes 128), a
+15-block planner drained at a configurable rate (whole blocks: the position jumps to
+each block's end, or with `partial_blocks` a hold stops inside one), ok / error:N / ALARM:N,
 1.1-format status reports (MPos + WCO, Bf, FS, Ov), realtime bytes (? ! ~ 0x18,
 feed overrides 0x90-0x94), `$$`, `$I`, `$X`, and a small G-code subset (G0-G4,
 G17-G19, G21, G90, G91.1, G94, M0-M9, M30). Faults are injected on purpose: an error
