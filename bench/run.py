@@ -9,7 +9,7 @@ period (the built-in default machine).
 The machine is shared, so the CPU time of the process (user + system, from the same
 wait4) is printed next to the wall time: it is the figure that noise does not move.
 
-Memory check: the largest program runs again at a 0.25 ms period (four times the
+Memory check: lhchips4 runs at 1 ms and again at a 0.1 ms period (ten times the
 periods, same blocks); the peak RSS must not grow with the periods.
 
 Breakdown: stellabee1 in-process, phase by phase (parse + travel check, then the
@@ -126,17 +126,20 @@ def main() -> None:
         print(f"{p.name:22s} {s['blocks']:7d} {s['periods']:9d} {s['cycle_time_s']:8.1f} {r['wall_s']:7.2f} "
               f"{s['cycle_time_s'] / r['wall_s']:9.1f} {r['cpu_s']:7.2f} {s['cycle_time_s'] / r['cpu_s']:8.1f} "
               f"{r['rss_mb']:8.1f}")
+    mem = CORPUS / "g1_lhchips4.ngc"
+    if mem.name in rows:
+        fine = run_process_rss(mem, "--period-ms", "0.1")
+        base = rows[mem.name]
+        print(f"\nmemory vs periods, {mem.name}: {base['summary']['periods']} periods -> {base['rss_mb']:.1f} MB; "
+              f"at a 0.1 ms period {fine['summary']['periods']} periods -> {fine['rss_mb']:.1f} MB")
     big = programs[0]
-    r = run_process_rss(big, "--period-ms", "0.25")
-    s = r["summary"]
-    base = rows[big.name]
-    print(f"\nmemory vs periods, {big.name}: {base['summary']['periods']} periods -> {base['rss_mb']:.1f} MB; "
-          f"at a 0.25 ms period {s['periods']} periods -> {r['rss_mb']:.1f} MB")
     if "stellabee" in big.name:
+        base = rows[big.name]
         factor = base["summary"]["cycle_time_s"] / base["wall_s"]
         cpu_factor = base["summary"]["cycle_time_s"] / base["cpu_s"]
         print(f"bar: >= 100x real time end to end on {big.name}: {factor:.1f}x by wall time, "
-              f"{cpu_factor:.1f}x by CPU time -> {'met' if factor >= 100 else 'NOT met'} (wall)")
+              f"{cpu_factor:.1f}x by CPU time -> {'met' if factor >= 100 else 'NOT met'} (wall); "
+              f"cycle {base['summary']['cycle_time_s'] / 60:.1f} min (the issue expects 7-8 min at these limits)")
         breakdown(big)
 
 
