@@ -127,3 +127,13 @@ def parse_sections(text: str, file: str = "<string>", *, min_points: int = 2) ->
 def read_sections(path: str | Path, *, min_points: int = 2) -> Sections:
     path = Path(path)
     return parse_sections(path.read_text(encoding="utf-8"), str(path), min_points=min_points)
+
+
+def orient_like_first(sections: Sections) -> tuple[Sections, list[int]]:
+    """The sections with every one that runs against the first (start-to-end direction, as a
+    zig-zag digitisation gives) reversed, and the indices of those reversed. Skinning joins
+    the sections' control points index by index, so they must all run the same way."""
+    ref = sections.points[0][-1] - sections.points[0][0]
+    flipped = [h for h, q in enumerate(sections.points) if np.dot(q[-1] - q[0], ref) < 0]
+    points = [q[::-1].copy() if h in flipped else q for h, q in enumerate(sections.points)]
+    return Sections(points, sections.labels, sections.first_lines), flipped

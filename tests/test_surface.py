@@ -13,7 +13,7 @@ from geomdl import NURBS  # noqa: E402
 from ipo.iges import read_surfaces  # noqa: E402
 from ipo.rational_fit import fit_rational  # noqa: E402
 from ipo.section_fit import fit_sections, fit_shared, section_error  # noqa: E402
-from ipo.sections import SectionsError, parse_sections  # noqa: E402
+from ipo.sections import SectionsError, orient_like_first, parse_sections  # noqa: E402
 from ipo.skinning import deviation_from_points, merge_v, skin, skin_patches  # noqa: E402
 from ipo.surface import RationalSurface, grid, surface_derivs, surface_points, unit_normals  # noqa: E402
 from machine.cli import main  # noqa: E402
@@ -49,6 +49,19 @@ def test_sections_errors_name_the_line(text, where, words):
     with pytest.raises(SectionsError) as err:
         parse_sections(text, "pts.xyz", min_points=3)
     assert where in str(err.value) and words in str(err.value)
+
+
+def test_zig_zag_sections_are_turned_to_run_alike(tmp_path):
+    case = saddle(0.005)
+    zig = [q[::-1] if h % 2 else q for h, q in enumerate(case.sections)]
+    s, flipped = orient_like_first(parse_sections(csv_text(zig)))
+    assert flipped == [1, 3, 5, 7]
+    for got, q in zip(s.points, case.sections):
+        np.testing.assert_allclose(got, q)
+    pts = tmp_path / "zig.csv"
+    pts.write_text(csv_text(zig))
+    result = CliRunner().invoke(main, ["surface", str(pts), "-o", str(tmp_path / "z.igs"), "--tol-mm", "0.02"])
+    assert result.exit_code == 0 and "sections 2, 4, 6, 8" in result.output
 
 
 # ---------------------------------------------------------------- surface evaluation

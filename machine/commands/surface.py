@@ -34,7 +34,7 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
 
     from ipo.iges import RationalCurve, write_iges
     from ipo.section_fit import fit_sections
-    from ipo.sections import SectionsError, read_sections
+    from ipo.sections import SectionsError, orient_like_first, read_sections
     from ipo.skinning import deviation_from_points, skin_patches
 
     if not tol_mm > 0:
@@ -42,7 +42,7 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
     if not 2 <= order <= 6:
         raise click.BadParameter(f"must be 2..6, got {order}", param_hint="--order")
     try:
-        secs = read_sections(points, min_points=order)
+        secs, flipped = orient_like_first(read_sections(points, min_points=order))
         t0 = time.perf_counter()
         fits = fit_sections(secs.points, degree=order - 1, tol_mm=tol_mm, n_ctrl=n_ctrl)
         t1 = time.perf_counter()
@@ -57,6 +57,9 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
     n_pts = sum(len(q) for q in secs.points)
     kind = "shared rational weights" if fits.rational else "weights 1 (a polynomial fit met the tolerance)"
     click.echo(f"{points}: {len(secs)} sections, {n_pts} points")
+    if flipped:
+        click.echo("reversed to run like the first section (zig-zag digitising): sections "
+                   + ", ".join(secs.labels[h] for h in flipped))
     click.echo(f"sections: order {order}, {fits.n_ctrl} control points each, uniform knots "
                f"0..{fits.fits[0].knots[-1]:g}, {kind}; {len(fits.rms_history)} iterations")
     click.echo(f"{'section':>10} {'line':>6} {'points':>7} {'max err um':>11} {'rms um':>9}")
