@@ -7,7 +7,8 @@ blocks and bytes before/after and their ratios, the largest deviation, the fit t
 and how many pieces stayed G01; then the control points needed to reach T with the
 rational fit, the same fit without weights, and geomdl's non-rational
 `fitting.approximate_curve`, on circular arcs, an ellipse and corpus runs (same run);
-then `vcnc compare` on finish_g01.nc against finish_nurbs.nc.
+then `vcnc compare` on finish_g01.nc against finish_nurbs.nc. "bound x" is the largest block
+ratio any conversion of the same runs could reach (each run one group of 4 control points).
 g1_stellabee1.ngc (169,220 lines) is benchmarked on its first STELLA_LINES lines: a
 deterministic part, because the whole file takes too long to fit on this machine.
 """
@@ -59,7 +60,7 @@ def programs(quick: bool) -> list[tuple[str, str]]:
 def conversion_table(quick: bool) -> None:
     print("\n== G01 runs -> G06.2 (degree 3), per program and tolerance")
     head = (f"{'program':42s} {'T um':>5s} {'blocks':>15s} {'x':>6s} {'bytes':>17s} {'x':>6s} "
-            f"{'groups':>6s} {'kept':>5s} {'max dev um':>10s} {'fit s':>7s}")
+            f"{'groups':>6s} {'kept':>5s} {'max dev um':>10s} {'fit s':>7s} {'bound x':>7s}")
     print(head)
     for name, text in programs(quick):
         for tol in TOLS_MM:
@@ -68,7 +69,8 @@ def conversion_table(quick: bool) -> None:
             print(f"{name:42s} {tol * 1e3:5.0f} {rep.blocks_before:>7d}->{rep.blocks_after:<7d} "
                   f"{rep.blocks_before / rep.blocks_after:6.2f} {rep.bytes_before:>8d}->{rep.bytes_after:<8d} "
                   f"{rep.bytes_before / rep.bytes_after:6.2f} {rep.groups:6d} {len(rep.kept_g01):5d} "
-                  f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:7.1f}")
+                  f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:7.1f} "
+                  f"{rep.blocks_before / rep.blocks_bound:7.2f}")
             assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
 
 

@@ -48,6 +48,9 @@ class ConvertReport:
     short_runs: int = 0  # too short for a G06.2 group to save blocks
     groups: int = 0
     moves_replaced: int = 0
+    # the fewest blocks any conversion of these runs could reach: every run as one group of
+    # degree + 1 control-point blocks and degree + 1 knot blocks where that is shorter than the run
+    blocks_bound: int = 0
     kept_g01: list[tuple[int, str]] = field(default_factory=list)  # (source line, why) pieces left G01
     max_deviation_mm: float = 0.0
     fit_time_s: float = 0.0
@@ -192,6 +195,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
         if len(run) < 2 or run[0].line not in pure:
             continue
         report.runs += 1
+        report.blocks_bound += min(0, 2 * (degree + 1) - len(run))
         if len(run) <= nurbs_blocks(degree + 1, degree):
             report.short_runs += 1
             continue
@@ -207,6 +211,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
         elif n not in skip:
             out.append(raw)
     result = "\n".join(out)
+    report.blocks_bound += report.blocks_before
     report.bytes_after = len(result.encode())
     report.blocks_after = count_blocks(result)
     return result, report

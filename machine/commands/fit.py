@@ -25,7 +25,9 @@ def format_report(rep, tol_mm: float) -> str:
         f"G01 runs         {rep.runs} ({rep.short_runs} too short to fit, kept as G01)",
         f"G06.2 groups     {rep.groups} replacing {rep.moves_replaced} G01 moves",
         f"kept as G01      {len(rep.kept_g01)} pieces (no fit within tolerance that saves blocks)",
-        f"blocks           {rep.blocks_before} -> {rep.blocks_after}  ({ratio_blocks:.2f}x fewer)",
+        f"blocks           {rep.blocks_before} -> {rep.blocks_after}  ({ratio_blocks:.2f}x fewer;"
+        f" no conversion of these runs can go below {rep.blocks_bound}:"
+        f" {rep.blocks_before / max(rep.blocks_bound, 1):.2f}x)",
         f"bytes            {rep.bytes_before} -> {rep.bytes_after}  ({ratio_bytes:.2f}x fewer)",
         f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um (checked on the curves as written)",
         f"fit time         {rep.fit_time_s:.2f} s",
