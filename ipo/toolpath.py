@@ -114,8 +114,9 @@ def _samples(surf: RationalSurface, v: float, r: float, sign: float, tol_mm: flo
     fold = np.einsum("ij,ij->i", np.diff(c, axis=0), np.diff(s, axis=0)) <= 0
     if fold.any():
         k = int(np.argmax(fold))
-        raise ValueError(f"the ball (r = {r} mm) is larger than the surface's concave radius of curvature near "
-                         f"({s[k, 0]:.3f}, {s[k, 1]:.3f}, {s[k, 2]:.3f}): the tool-centre path folds back (gouge)")
+        raise ValueError(f"the tool-centre path folds back (gouge) near ({s[k, 0]:.3f}, {s[k, 1]:.3f}, "
+                         f"{s[k, 2]:.3f}): the ball (r = {r} mm) is larger than the surface's concave radius of "
+                         "curvature there, or the surface has a concave crease (a C0 patch joint)")
     return u, c
 
 
