@@ -66,6 +66,7 @@ def test_ellipse_run_becomes_g06_2_within_tolerance(tol_mm):
     out, rep = convert_text(src, tol_mm)
     before, after = _check_round_trip(src, out, tol_mm)
     assert rep.groups >= 1 and rep.max_deviation_mm <= tol_mm
+    assert rep.blocks_bound <= rep.blocks_after
     assert rep.blocks_after < rep.blocks_before / 2
     assert rep.blocks_before == count_blocks(src) and rep.blocks_after == count_blocks(out)
     # every group ends exactly on a vertex of the run (same number written, same float read)
