@@ -62,7 +62,8 @@ def _cut_periods(run: dict):
     pos = tr["pos_mm"]
     step = np.linalg.norm(np.diff(np.vstack([pos[:1], pos]), axis=0), axis=1)
     feed_of_line = run["feed_lines"]
-    prog = np.array([feed_of_line.get(int(n), np.nan) for n in tr["line"]])
+    lines, per_period = np.unique(tr["line"], return_inverse=True)
+    prog = np.array([feed_of_line.get(int(n), np.nan) for n in lines])[per_period]
     speed = np.asarray(tr["feed_mm_s"], dtype=float)
     cut = np.isfinite(prog) & (speed > 0)
     return np.flatnonzero(cut), speed, prog, step
