@@ -25,7 +25,7 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import sample_caps, spread_min
+from ipo.limits import axis_velocity_cap, sample_caps, spread_min
 from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
@@ -40,6 +40,7 @@ ACCEL_USE = 0.985
 VELOCITY_USE = 0.995
 _BUILD_CHUNK = 2048  # motions turned into pieces per call
 _START_TOL_MM = 1e-6
+_STANDSTILL_X = 1e-12  # v^2 below this (v < 1 um/s) counts as standing still
 
 
 class FeedPlanner:
@@ -231,7 +232,11 @@ class FeedPlanner:
         xf = feed**2
         hard = self._cap
         if self._fir is not None:
-            hard = spread_min(self._smp.s, hard, (len(self._fir) + 1) * self.T, float(self.a_max.max()))
+            span, acc = (len(self._fir) + 1) * self.T, float(self.a_max.max())
+            # a cap too low to cross smoothly (below what the filter mixes in over its span)
+            # becomes a stop, where the filter is run out exactly
+            hard = np.where(hard < (0.5 * acc * span) ** 2, 0.0, hard)
+            hard = spread_min(self._smp.s, hard, span, acc)
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
 
@@ -242,6 +247,7 @@ class FeedPlanner:
             cap, reason = self._soft_caps()
             ascale = np.where(self._corner[:-1] | self._corner[1:], 0.5, 1.0)
             x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._x0, 0.0)
+            x[x < _STANDSTILL_X] = 0.0  # rounding residue of braking to a stop is a stop
             if final:
                 c = len(smp) - 1
             else:
@@ -272,7 +278,10 @@ class FeedPlanner:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
         smp = self._smp
         ascale = np.where(self._corner[:c] | self._corner[1:c + 1], 0.5, 1.0)
-        s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1],
+        loc = smp.piece[:c + 1] - self._piece_base
+        feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
+        plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
+        s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
         # a period is limited by a cap where either end of its interval runs at that cap,
         # else it is accelerating or braking

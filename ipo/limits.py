@@ -77,8 +77,8 @@ def spread_min(s, cap, span_s, accel):
     n = s.shape[0]
     out = cap.copy()
     for k in range(n):
-        if not cap[k] < 1e300:
-            continue
+        if not (0.0 < cap[k] < 1e300):
+            continue  # no cap, or a stop: the filter is run out at stops
         reach = np.sqrt(cap[k]) * span_s + 0.5 * accel * span_s * span_s
         j = k - 1
         while j >= 0 and s[k] - s[j] <= reach:

@@ -117,13 +117,15 @@ def positions_at(times: np.ndarray, s: np.ndarray, x: np.ndarray, tc: np.ndarray
 
 
 @njit(cache=True)
-def refine(s, t, kv, x, cap, a_max, ascale):
+def refine(s, t, kv, x, cap, plateau, a_max, ascale):
     """Insert the profile's own corners inside straight intervals.
 
     Between two samples x is linear in s, but on a straight stretch (no curvature, one
     tangent) the best profile is min(accelerate from x_k, cap, brake into x_k+1): a
     line that reaches its cruise speed, or turns from accelerating to braking, between
-    two samples gets the exact breakpoints. Returns (s, x, source interval)."""
+    two samples gets the exact breakpoints. A cap of 0 (a stop) holds at its sample only;
+    `plateau` is the cap inside an interval that starts at one (programmed feed and axis
+    velocities). Returns (s, x, source interval)."""
     n = s.shape[0]
     so = np.empty(3 * n)
     xo = np.empty(3 * n)
@@ -148,7 +150,7 @@ def refine(s, t, kv, x, cap, a_max, ascale):
                 hi, lo = min(hi0, hi1), max(lo0, lo1)
                 if hi > 0.0 and lo < 0.0:
                     sp = -lo * ds / (hi - lo)
-                    xp = 2.0 * hi * sp
+                    xp = min(2.0 * hi * sp, plateau[k])
                     for i in range(3):
                         kmax = max(abs(kv[k, i]), abs(kv[k + 1, i]))
                         if kmax > 0.0:
@@ -163,7 +165,9 @@ def refine(s, t, kv, x, cap, a_max, ascale):
                     m += 1
             continue
         lo, hi = _bounds(t, kv, k, 0.0, a_max, ascale[k])
-        c = min(cap[k], cap[k + 1])
+        c0 = cap[k] if cap[k] > 0.0 else plateau[k]
+        c1 = cap[k + 1] if cap[k + 1] > 0.0 else plateau[k]
+        c = min(c0, c1)
         if hi <= 0.0 or lo >= 0.0:
             continue
         s1 = (c - x[k]) / (2.0 * hi)  # reaches the cap
