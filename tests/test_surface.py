@@ -199,6 +199,18 @@ def test_cli_surface_writes_iges_and_reports(tmp_path):
     assert case.error_to_truth(surface_points(surf, u, v)).max() < 0.03
 
 
+def test_cli_surface_with_a_fixed_count_and_xyz_text(tmp_path):
+    case = cylinder(0.002)
+    pts = tmp_path / "pts.xyz"
+    pts.write_text("\n\n".join("\n".join(f"{x} {y} {z}" for x, y, z in q) for q in case.sections) + "\n")
+    out = tmp_path / "c.igs"
+    result = CliRunner().invoke(main, ["surface", str(pts), "-o", str(out), "--ctrl", "6", "--order", "3"])
+    assert result.exit_code == 0, result.output
+    assert "order 3, 6 control points each" in result.output and "shared rational weights" in result.output
+    surf = read_surfaces(out)[0]
+    assert (surf.degree_u, surf.weights.shape) == (2, (6, 7))
+
+
 def test_cli_surface_reports_bad_input_with_its_line(tmp_path):
     pts = tmp_path / "bad.csv"
     pts.write_text("x,y,z\n0,0,0\n1,0\n")
