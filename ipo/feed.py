@@ -31,6 +31,7 @@ from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, bu
 from ipo.reference_word import quantise
 from ipo.roughness import cusp_height_mm
 from ipo.sampling import Samples, nurbs_table, sample
+from ipo.scurve import MovingAverage
 from ipo.nurbs_driver import NurbsDriver
 from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Line, Rapid, Coolant, Dwell, Message, Nurbs, ProgramEnd, Spindle, Stop, ToolChange
 
@@ -85,8 +86,8 @@ class FeedPlanner:
             # the filter shifts the path acceleration along the path against the centripetal
             # share planned for each point: each gets half of every axis limit
             self.a_max = self.a_max / 2
-            span = max(a.max_accel_mm_s2 / a.max_jerk_mm_s3 for a in config.axes)
-            self._fir = np.zeros(max(int(np.ceil(span / self.T - 1e-9)), 1) - 1)
+            self._fir = MovingAverage.for_limits(np.array([a.max_accel_mm_s2 for a in config.axes]),
+                                                 np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
         self._n_nurbs = 0
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
@@ -232,7 +233,7 @@ class FeedPlanner:
         xf = feed**2
         hard = self._cap
         if self._fir is not None:
-            span, acc = (len(self._fir) + 1) * self.T, float(self.a_max.max())
+            span, acc = self._fir.m * self.T, float(self.a_max.max())
             # a cap too low to cross smoothly (below what the filter mixes in over its span)
             # becomes a stop, where the filter is run out exactly
             hard = np.where(hard < (0.5 * acc * span) ** 2, 0.0, hard)
@@ -333,23 +334,14 @@ class FeedPlanner:
             self._phase = self.T
 
     def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
-        """Planned arc lengths sv of consecutive periods to the machine. In S-curve mode the
-        path step of each period is the moving average of the last m planned steps (m T =
-        A / J): a trapezoid's acceleration then ramps over m periods, so the jerk stays
-        within A / (m T), and the distance is kept exactly (at a stop the filter is run
-        out with m - 1 standing periods of input)."""
+        """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
+        filter (ipo.scurve) in that mode; `flush` runs the filter out at a stop."""
         if self._fir is None:
             yield from self._batch(sv, s_prev, limit)
             return
-        steps = np.diff(sv, prepend=s_prev)
+        smooth = self._fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
         if flush:
-            steps = np.concatenate([steps, np.zeros(len(self._fir))])
-            limit = np.concatenate([limit, np.full(len(self._fir), LIMIT_ACCEL, np.int8)])
-        m = len(self._fir) + 1
-        joined = np.concatenate([self._fir, steps])
-        c = np.cumsum(np.concatenate([[0.0], joined]))
-        smooth = (c[m:] - c[:-m]) / m
-        self._fir = joined[len(joined) - (m - 1):].copy() if m > 1 else self._fir
+            limit = np.concatenate([limit, np.full(self._fir.m - 1, LIMIT_ACCEL, np.int8)])
         s_f = self._s_out + np.cumsum(smooth)
         if flush:
             s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
