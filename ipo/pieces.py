@@ -31,6 +31,7 @@ KIND_BLEND = 2  # a corner blend curve (a cubic): evaluated by arc length direct
 _COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
 _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
 _CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs are crossed as they are
+_MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 nm step)
 
 
 @dataclass(slots=True)
@@ -240,7 +241,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             pc.nurbs[slot] = motions[i][2]
             pc.length[slot] = nurbs_length(motions[i].nurbs_index)
             pc.c[slot] = start[i]
-    keep = pc.length > 0
+    keep = pc.length > _MIN_PIECE_MM  # blends may leave float-noise remnants of a straight
     return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
 
 
