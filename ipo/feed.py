@@ -10,6 +10,11 @@ step v*T of each period) -> BLU increments (ipo.reference_word.quantise).
 Bounded memory: the planner holds a window that reaches one stopping distance beyond
 what it commits, and it emits the committed part chunk by chunk.
 
+S-curve mode (accel_mode = "scurve"): the per-period path steps pass a moving average
+over A / J seconds (ipo.scurve), the planner gives the tangential and centripetal
+shares half of each axis limit each, caps are spread over what the filter mixes, and
+unblended corners become stops.
+
 Feed override. `plan_periods(..., feed_override=f)` plans every feed move at f times its
 programmed feed (rapids are not overridden; the other limits always hold). A real-time
 controller can change it while running: build a `FeedPlanner`, iterate `planner.run(
@@ -30,10 +35,11 @@ from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
 from ipo.roughness import cusp_height_mm
+from ipo.nurbs_driver import NurbsDriver
 from ipo.sampling import Samples, nurbs_table, sample
 from ipo.scurve import MovingAverage
-from ipo.nurbs_driver import NurbsDriver
-from ipr.entities import MOTION_TYPES, PLANE_AXES, Arc, Line, Rapid, Coolant, Dwell, Message, Nurbs, ProgramEnd, Spindle, Stop, ToolChange
+from ipr.entities import (MOTION_TYPES, PLANE_AXES, Arc, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+                          Spindle, Stop, ToolChange)
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
 # between samples and is checked at the samples only.
