@@ -158,7 +158,8 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     limiter for feed moves while the spindle turns; None switches it off. With j_max
     (S-curve mode) a jump of the curvature vector where pieces meet, which steps each
     axis acceleration within a period, is kept within the jerk limit,
-    v^2 |dkv_i| <= J_i T, and the machine stops at an unblended corner (crossing it would
+    v^2 |dkv_i| <= J_i T, the turning of the centripetal acceleration along a curve too,
+    v^3 kappa^2 <= J, and the machine stops at an unblended corner (crossing it would
     step the velocity itself).
     """
     x_axis = axis_velocity_cap(smp.t, v_max)
@@ -181,6 +182,10 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         x_jerk = np.where(sharp, 0.0, x_jerk)
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
         x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
+        # the centripetal acceleration turns with the tangent: its rate is v^3 kappa^2
+        kappa = np.linalg.norm(smp.kv, axis=1)
+        with np.errstate(divide="ignore"):
+            x_corner = np.minimum(x_corner, (j_max.min() / kappa**2) ** (2.0 / 3.0))
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
     x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
     caps.append((x_chord, LIMIT_CHORD))
