@@ -36,12 +36,6 @@ class ProgramRejected(Exception):
         super().__init__("\n".join(reasons))
 
 
-def setup_for(config) -> Setup:
-    """The interpreter's view of the machine: work offsets and tool lengths."""
-    return Setup(work_offsets_mm=dict(config.work_offsets_mm),
-                 tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()})
-
-
 def start_position(program: Program) -> tuple[float, float, float]:
     """Where the machine stands before the first move: the first motion's start."""
     for e in program.entities:
@@ -110,7 +104,7 @@ class Controller:
         """Interpret and check the whole program; raise ProgramRejected with every reason."""
         t0 = time.perf_counter()
         try:
-            program = parse_file(path, setup=setup_for(self.config), all_errors=True)
+            program = parse_file(path, setup=Setup.from_machine(self.config), all_errors=True)
         except GCodeError as err:
             raise ProgramRejected([str(d) for d in err.diagnostics]) from None
         except OSError as err:

@@ -5,9 +5,14 @@ Import the plain helpers from a test module with `from conftest import corpus_fi
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+# Many small least-squares fits: BLAS threads only contend for the two cores (as in the CLI).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 # The repo is /work/main and the shared material /work/shared: a sibling of the checkout.
 SHARED_DIR = Path(__file__).resolve().parents[2] / "shared"

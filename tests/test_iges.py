@@ -10,21 +10,19 @@ points, which it reads correctly, are what this test uses.
 """
 from __future__ import annotations
 
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-import pyiges  # noqa: E402
-from geomdl import NURBS  # noqa: E402
+import numpy as np
+import pytest
+import pyiges
+from geomdl import NURBS
 
-from ipo.iges import IgesError, RationalCurve, iges_text, read_surfaces, real, write_iges  # noqa: E402
-from ipo.nurbs import curve_points  # noqa: E402
-from ipo.section_fit import fit_shared  # noqa: E402
-from ipo.skinning import skin  # noqa: E402
-from ipo.surface import grid, surface_points  # noqa: E402
-from surface_cases import bump, cylinder  # noqa: E402
+from ipo.iges import IgesError, RationalCurve, iges_text, read_surfaces, real, write_iges
+from ipo.nurbs import curve_points
+from ipo.section_fit import fit_shared
+from ipo.skinning import skin
+from ipo.surface import grid, surface_points
+from surface_cases import bump, cylinder
 
 
 @pytest.fixture(scope="module")

@@ -1,23 +1,21 @@
 """Digitised sections -> rational section fits -> skinned, merged surface (001 §2–4)."""
 from __future__ import annotations
 
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-from click.testing import CliRunner  # noqa: E402
-from geomdl import NURBS  # noqa: E402
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from geomdl import NURBS
 
-from ipo.iges import read_surfaces  # noqa: E402
-from ipo.rational_fit import fit_rational  # noqa: E402
-from ipo.section_fit import fit_sections, fit_shared, section_error  # noqa: E402
-from ipo.sections import SectionsError, orient_like_first, parse_sections  # noqa: E402
-from ipo.skinning import deviation_from_points, merge_v, skin, skin_patches  # noqa: E402
-from ipo.surface import RationalSurface, grid, surface_derivs, surface_points, unit_normals  # noqa: E402
-from machine.cli import main  # noqa: E402
-from surface_cases import bump, csv_text, cylinder, saddle  # noqa: E402
+from ipo.iges import read_surfaces
+from ipo.rational_fit import fit_rational
+from ipo.section_fit import fit_sections, fit_shared, section_error
+from ipo.sections import SectionsError, orient_like_first, parse_sections
+from ipo.skinning import deviation_from_points, merge_v, skin, skin_patches
+from ipo.surface import RationalSurface, grid, surface_derivs, surface_points, unit_normals
+from machine.cli import main
+from surface_cases import bump, csv_text, cylinder, saddle
 
 
 # ---------------------------------------------------------------- input

@@ -2,26 +2,24 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-from click.testing import CliRunner  # noqa: E402
-from scipy.spatial import cKDTree  # noqa: E402
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from scipy.spatial import cKDTree
 
-from ipo.iges import write_iges  # noqa: E402
-from ipo.nurbs import curve_points  # noqa: E402
-from ipo.section_fit import fit_shared  # noqa: E402
-from ipo.skinning import skin  # noqa: E402
-from ipo.surface import closest_points, grid, surface_points, swap_uv, unit_normals  # noqa: E402
-from ipo.toolpath import ToolpathSettings, pass_values, plan_passes, program_text  # noqa: E402
-from ipr import parse_file  # noqa: E402
-from ipr.entities import Nurbs  # noqa: E402
-from machine.cli import main  # noqa: E402
-from surface_cases import bump, cylinder  # noqa: E402
+from ipo.iges import write_iges
+from ipo.nurbs import curve_points
+from ipo.section_fit import fit_shared
+from ipo.skinning import skin
+from ipo.surface import closest_points, grid, surface_points, swap_uv, unit_normals
+from ipo.toolpath import ToolpathSettings, pass_values, plan_passes, program_text
+from ipr import parse_file
+from ipr.entities import Nurbs
+from machine.cli import main
+from surface_cases import bump, cylinder
 
 MACHINE = Path(__file__).resolve().parents[1] / "programs" / "finish_machine.toml"
 R, PICK, TOL = 3.0, 2.5, 0.005

@@ -14,13 +14,10 @@ every period, each point against the other path's polyline near the same arc len
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
-import click  # noqa: E402
-import numpy as np  # noqa: E402
+import click
+import numpy as np
 
 ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),

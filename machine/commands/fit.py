@@ -7,14 +7,9 @@ Prints runs, blocks and bytes before/after, the largest deviation and the fit ti
 """
 from __future__ import annotations
 
-import os
 import sys
 
-# The fits solve many small least-squares problems: BLAS threads only contend for them.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-import click  # noqa: E402
+import click
 
 
 def format_report(rep, tol_mm: float) -> str:

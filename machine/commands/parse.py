@@ -107,16 +107,10 @@ def _summary(program) -> None:
 
 def _setup(machine_file: str | None):
     """Work offsets and tool lengths of the machine file (default: the built-in machine)."""
-    from ipo.config import ConfigError, default_config, load_config
     from ipr import Setup
+    from machine.commands import load_machine
 
-    try:
-        config = default_config() if machine_file is None else load_config(machine_file)
-    except ConfigError as err:
-        raise click.ClickException(f"machine file {machine_file or '(default)'}: {err}") from None
-    except OSError as err:
-        raise click.ClickException(f"machine file {machine_file}: {err.strerror or err}") from None
-    return Setup.from_machine(config)
+    return Setup.from_machine(load_machine(machine_file))
 
 
 @click.command("parse")

@@ -7,18 +7,8 @@ import sys
 
 import click
 
+from machine.commands import load_machine
 
-
-def _load_machine(path):
-    """The machine file, or the built-in default; a bad file names the key and exits."""
-    from ipo.config import ConfigError, default_config, load_config
-
-    try:
-        return default_config() if path is None else load_config(path)
-    except ConfigError as err:
-        raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
-    except OSError as err:
-        raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
 
 
 def _print_summary(result, as_json: bool) -> None:
@@ -114,7 +104,7 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     from machine.controller import Controller, ProgramRejected
     from machine.trace import MemoryTrace, load_trace, open_writer
 
-    config = _load_machine(machine_file)
+    config = load_machine(machine_file)
     if period_ms is not None:
         if not period_ms > 0:
             raise click.BadParameter("must be > 0", param_hint="--period-ms")

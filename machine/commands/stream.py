@@ -6,18 +6,9 @@ import sys
 
 import click
 
+from machine.commands import load_machine
+
 KEYS_HELP = "space hold/resume, + / - feed override 10 %, 0 override 100 %, x reset"
-
-
-def _load_machine(path):
-    from ipo.config import ConfigError, default_config, load_config
-
-    try:
-        return default_config() if path is None else load_config(path)
-    except ConfigError as err:
-        raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
-    except OSError as err:
-        raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
 
 
 def _load_program(path):
@@ -186,7 +177,7 @@ def _stream_increments(port, baud, program, config) -> None:
               help="grbl status polls per second")
 def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlock, poll_hz):
     """Stream FILE to a grbl 1.1 board or an increment-protocol drive."""
-    config = _load_machine(machine_file)
+    config = load_machine(machine_file)
     program = _load_program(file)
     if resume_from is not None and protocol == "increments":
         raise click.UsageError("--resume-from applies to grbl streams only")

@@ -10,11 +10,7 @@ from __future__ import annotations
 import os
 import time
 
-# The fits solve many small least-squares problems: BLAS threads only contend for them.
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-import click  # noqa: E402
+import click
 
 
 @click.command("surface")
