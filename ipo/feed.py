@@ -30,7 +30,7 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import axis_velocity_cap, sample_caps, spread_min
+from ipo.limits import CORNER_SHARE, axis_velocity_cap, sample_caps, spread_min
 from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
@@ -216,15 +216,19 @@ class FeedPlanner:
             cap, reason, corner = self._caps(smp, local)
             self._smp, self._cap, self._reason, self._corner = smp, cap, reason, corner
         else:
-            joined = Samples.concat([self._smp.tail(len(self._smp) - 1), smp])
+            # the last two held samples are capped again: a corner where the windows join
+            # also caps the sample before it (limits.CORNER_SHARE)
+            j = min(2, len(self._smp))
+            joined = Samples.concat([self._smp.tail(len(self._smp) - j), smp])
             cap, reason, corner = self._caps(joined, local)
-            if cap[0] < self._cap[-1]:
-                self._cap[-1], self._reason[-1] = cap[0], reason[0]
-            self._corner[-1] |= corner[0]
+            lower = cap[:j] < self._cap[-j:]
+            self._cap[-j:] = np.where(lower, cap[:j], self._cap[-j:])
+            self._reason[-j:] = np.where(lower, reason[:j], self._reason[-j:])
+            self._corner[-j:] |= corner[:j]
             self._smp = Samples.concat([self._smp, smp])
-            self._cap = np.concatenate([self._cap, cap[1:]])
-            self._reason = np.concatenate([self._reason, reason[1:]])
-            self._corner = np.concatenate([self._corner, corner[1:]])
+            self._cap = np.concatenate([self._cap, cap[j:]])
+            self._reason = np.concatenate([self._reason, reason[j:]])
+            self._corner = np.concatenate([self._corner, corner[j:]])
         self._s_end += float(pc.length.sum())
 
     def _caps(self, smp: Samples, pc: Pieces):
@@ -252,7 +256,7 @@ class FeedPlanner:
             self._override_changed = False
             smp = self._smp
             cap, reason = self._soft_caps()
-            ascale = np.where(self._corner[:-1] | self._corner[1:], 0.5, 1.0)
+            ascale = np.where(self._corner[:-1] | self._corner[1:], CORNER_SHARE, 1.0)
             x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._x0, 0.0)
             x[x < _STANDSTILL_X] = 0.0  # rounding residue of braking to a stop is a stop
             if final:
@@ -284,7 +288,7 @@ class FeedPlanner:
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
         smp = self._smp
-        ascale = np.where(self._corner[:c] | self._corner[1:c + 1], 0.5, 1.0)
+        ascale = np.where(self._corner[:c] | self._corner[1:c + 1], CORNER_SHARE, 1.0)
         loc = smp.piece[:c + 1] - self._piece_base
         feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))

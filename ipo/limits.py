@@ -16,6 +16,11 @@ _TINY = 1e-12
 # The roughness cap is planned a hair below its value: the profile meets it at samples and
 # the per-period feed is a mean over the period, which may otherwise exceed it by ~1e-5.
 ROUGHNESS_USE = 0.9999
+# Share of each axis limit left for the path acceleration next to an unblended corner,
+# whose own velocity step takes the rest within one period (corner_cap).
+CORNER_SHARE = 0.5
+# A tangent step below this share of an axis's per-period velocity change is no corner.
+NEGLIGIBLE_STEP = 0.005
 
 
 def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
@@ -123,9 +128,21 @@ def corner_cap(dt: np.ndarray, a_max: np.ndarray, period_s: float, tol_mm: np.nd
     (v T / 2) sin(theta / 2) = v T |dt| / 4, kept within tol_mm.
     """
     with np.errstate(divide="ignore"):
-        v_acc = np.min(0.5 * a_max[None, :] * period_s / np.abs(dt), axis=1)
+        v_acc = np.min((1.0 - CORNER_SHARE) * a_max[None, :] * period_s / np.abs(dt), axis=1)
         v_cut = 4 * tol_mm / (period_s * np.linalg.norm(dt, axis=1))
     return np.minimum(v_acc, v_cut) ** 2
+
+
+def _sharp(dt: np.ndarray, x_top: np.ndarray, a_max: np.ndarray, period_s: float,
+           j_max: np.ndarray | None) -> np.ndarray:
+    """Junctions whose tangent step dt (J, 3) matters: crossed at the top speed the other
+    limits allow there (v^2 <= x_top), it steps some axis velocity by more than
+    NEGLIGIBLE_STEP of what its acceleration (S-curve mode: its jerk) allows per period.
+    Smaller steps (an arc's spiral term left out of its frame, float noise) fit in the
+    planner's headroom below the limits."""
+    step = np.sqrt(np.minimum(x_top, 1e300))[:, None] * np.abs(dt)
+    room = a_max * period_s if j_max is None else np.minimum(a_max * period_s, j_max * period_s**2)
+    return np.any(step > NEGLIGIBLE_STEP * room[None, :], axis=1)
 
 
 def combine(caps: list[tuple[np.ndarray, int]]) -> tuple[np.ndarray, np.ndarray]:
@@ -167,7 +184,8 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     x_corner = np.full(len(smp), np.inf)
     edge = np.nonzero(smp.piece[1:] != smp.piece[:-1])[0]
     dt = smp.t[edge + 1] - smp.t[edge]
-    sharp = np.linalg.norm(dt, axis=1) > 1e-7
+    sharp = _sharp(dt, np.minimum(np.minimum(x_axis, x_curv)[edge], np.minimum(x_axis, x_curv)[edge + 1]),
+                   a_max, period_s, j_max)
     k = edge[sharp]
     tol = np.maximum(delta_mm, pc.corner_tol_mm[smp.piece[k]])
     c = corner_cap(dt[sharp], a_max, period_s, tol)
@@ -175,6 +193,14 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     x_corner[k + 1] = c
     corner = np.zeros(len(smp), bool)
     corner[k] = corner[k + 1] = True
+    # every interval touching a corner sample is planned with CORNER_SHARE of the axis
+    # limits (lookahead.plan's ascale): its ends must be reachable within that share, or
+    # the look-ahead finds no feasible path acceleration there
+    near = corner.copy()
+    near[1:] |= corner[:-1]
+    near[:-1] |= corner[1:]
+    if near.any():
+        x_curv[near] = np.minimum(x_curv[near], curvature_cap(smp.t[near], smp.kv[near], CORNER_SHARE * a_max))
     if j_max is not None:
         with np.errstate(divide="ignore"):
             dk = np.abs(smp.kv[edge + 1] - smp.kv[edge])

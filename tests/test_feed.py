@@ -10,8 +10,9 @@ from scipy.interpolate import BSpline
 
 from ipo.config import Finishing, default_config
 from ipo.feed import ACCEL_USE, FeedPlanner, plan_periods
+from ipr import iter_entities, parse_text
 from ipo.period import LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
-from ipr.entities import (EXACT_STOP, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
+from ipr.entities import (EXACT_STOP, MOTION_TYPES, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop)
 
 BASE = default_config()
@@ -291,3 +292,47 @@ def test_moving_average_keeps_the_distance_and_ramps():
     assert len(out) == len(steps) + 9
     assert out.sum() == pytest.approx(steps.sum(), rel=1e-12)
     assert np.all(np.abs(np.diff(out, 2)) <= np.abs(np.diff(steps, 2)).max() + 1e-15)
+
+
+# An inch G18 arc that meets the next straight at 16 deg (g1_stellabee1.ngc, source line 19946):
+# the arc's end and its corner blend met with a tangent step of 4e-6 (the arc's spiral term),
+# which halved the axis limits there while the speed stayed at the full-limit curvature cap.
+ZX_ARC_LINE = """G20 G18 G64 G90 G94
+G0 X1.2260 Y4.1380 Z-0.2183
+G1 X1.2280 Z-0.2330 F999
+X1.2300 Z-0.2343
+X1.2340 Z-0.2285
+G2 X1.2400 Z-0.1585 I-0.4266 K0.0718
+G1 X1.2440 Z-0.1448
+G2 X1.2520 Z-0.1389 I-0.0001 K0.0086
+M2
+"""
+
+
+def _without_lead_rapid(entities):
+    ents = list(entities)
+    assert isinstance(ents[0], Rapid)
+    return ents[1:], ents[0].end
+
+
+def test_zx_arc_to_line_junction_stays_within_limits():
+    ents, start = _without_lead_rapid(parse_text(ZX_ARC_LINE).entities)
+    _, out, start = run(ents, start_mm=start)
+    assert_within_limits(out["pos_mm"], start)
+    np.testing.assert_allclose(out["pos_mm"][-1], np.array([1.2520, 4.1380, -0.1389]) * 25.4, atol=1e-9)
+
+
+def test_stellabee_excerpt_stays_within_limits():
+    """300 blocks of the G18 raster relief around source line 19946, entered from where the
+    program stands before them."""
+    from conftest import require_corpus
+    lines = (require_corpus() / "g1_stellabee1.ngc").read_text().splitlines()
+    first, last = 19796, 20096
+    before = list(iter_entities(lines[:first - 1]))
+    here = next(e for e in reversed(before) if hasattr(e, "end")).end
+    text = ["G20 G17 G40", "G80 G90 G94", "G64 G18 F999",
+            "G0 X%.6f Y%.6f Z%.6f" % tuple(np.divide(here, 25.4)), "G1"] + lines[first - 1:last]
+    ents, start = _without_lead_rapid(e for e in iter_entities(text) if isinstance(e, MOTION_TYPES))
+    _, out, start = run(ents, start_mm=start)
+    assert_within_limits(out["pos_mm"], start)
+    assert out["line"].min() == 6 and out["line"].max() == 5 + last - first + 1
