@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ipo import nurbs as nk
+from ipo.blend_jit import bezier_points_at, bezier_table
 from ipo.pieces import KIND_ANALYTIC, Pieces, frame
 
 MAX_TURN_RAD = 0.03
@@ -70,7 +71,9 @@ class NurbsTable:
         h = self.s[k + 1] - self.s[k]
         q = np.divide(s - self.s[k], h, out=np.zeros_like(s), where=h > 0)
         u = self.u[k] + q * (self.u[k + 1] - self.u[k])
-        xg, wg = np.polynomial.legendre.leggauss(5)
+        if _is_bezier3(e):
+            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, s, _GAUSS_X, _GAUSS_W)
+        xg, wg = _GAUSS_X, _GAUSS_W
         for _ in range(3):
             du = u - self.u[k]
             uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
@@ -92,9 +95,17 @@ class NurbsTable:
 _BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])
 
 
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
+
+
+def _is_bezier3(e) -> bool:
+    return (e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, _BEZIER3_KNOTS)
+            and bool(np.all(e.weights == 1)))
+
+
 def _derivs(e, u: np.ndarray, n: int) -> np.ndarray:
     """C(u) and its first n derivatives; a cubic Bezier (the corner blends) in closed form."""
-    if e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, _BEZIER3_KNOTS) and np.all(e.weights == 1):
+    if _is_bezier3(e):
         p0, p1, p2, p3 = e.points
         a1, a2, a3 = 3 * (p1 - p0), 3 * (p2 - 2 * p1 + p0), p3 - 3 * p2 + 3 * p1 - p0
         uu = np.asarray(u, dtype=float)[:, None]
@@ -116,6 +127,12 @@ def _nurbs_frame(e, u: np.ndarray):
 
 def nurbs_table(e) -> NurbsTable:
     """Adaptive arc-length table of a NURBS entity."""
+    if _is_bezier3(e):  # a corner blend: the same table, compiled
+        *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
+                                  MAX_TURN_RAD, MAX_SPACING_MM)
+        if not ok:
+            raise ValueError(f"line {e.line}: NURBS has a vanishing derivative (a cusp or repeated points)")
+        return NurbsTable(*table)
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])
     u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
