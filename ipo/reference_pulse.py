@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ipo.reference_word import checked_points
+
 
 @njit(cache=True)
 def _walk(pts_blu, start, out):
@@ -54,15 +56,6 @@ def _blu(blu_mm: float) -> float:
     return float(blu_mm)
 
 
-def _points(pts, name: str) -> np.ndarray:
-    p = np.ascontiguousarray(pts, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (N, 3), got {p.shape}")
-    if not np.isfinite(p).all():
-        raise ValueError(f"{name} holds non-finite values")
-    return p
-
-
 def _start(start_blu) -> np.ndarray:
     s = np.asarray(start_blu)
     if s.shape != (3,) or not np.issubdtype(s.dtype, np.integer):
@@ -72,7 +65,7 @@ def _start(start_blu) -> np.ndarray:
 
 def pulses(points_mm: np.ndarray, blu_mm: float, start_blu: np.ndarray) -> np.ndarray:
     """Unit steps (M, 3) int8, each row one of the seven non-zero combinations of -1/0/+1."""
-    pts = _points(points_mm, "points_mm") / _blu(blu_mm)
+    pts = checked_points(points_mm, "points_mm") / _blu(blu_mm)
     start = _start(start_blu)
     m = _walk(pts, start, np.empty((0, 3), dtype=np.int8))
     out = np.empty((m, 3), dtype=np.int8)
@@ -205,7 +198,7 @@ def pulse_deviation_blu(path_blu: np.ndarray, curve_points_mm: np.ndarray, blu_m
     path = np.asarray(path_blu)
     if path.ndim != 2 or path.shape[1] != 3 or len(path) == 0:
         raise ValueError(f"path_blu must have shape (M, 3) with M >= 1, got {path.shape}")
-    curve = _points(curve_points_mm, "curve_points_mm") / blu
+    curve = checked_points(curve_points_mm, "curve_points_mm") / blu
     if len(curve) < 2:
         raise ValueError("curve_points_mm needs at least two points")
     seg_len = np.linalg.norm(np.diff(curve, axis=0), axis=1)

@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def _points(pos_mm, name: str) -> np.ndarray:
-    pos = np.asarray(pos_mm, dtype=np.float64)
+def checked_points(pos_mm, name: str) -> np.ndarray:
+    """pos_mm as a contiguous finite (N, 3) float64 array, or ValueError naming `name`."""
+    pos = np.ascontiguousarray(pos_mm, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 3:
         raise ValueError(f"{name} must have shape (N, 3), got {pos.shape}")
     if not np.isfinite(pos).all():
@@ -25,7 +26,7 @@ def quantise(pos_mm: np.ndarray, blu_mm: float, start_blu: np.ndarray) -> tuple[
     start_blu is where the machine stands (its last commanded position in BLU);
     start_blu + inc_blu[:j+1].sum(0) == round(pos_mm[j] / blu_mm) for every j.
     """
-    pos = _points(pos_mm, "pos_mm")
+    pos = checked_points(pos_mm, "pos_mm")
     if not (np.isfinite(blu_mm) and blu_mm > 0):
         raise ValueError(f"blu_mm must be finite and > 0, got {blu_mm}")
     start = np.asarray(start_blu)
@@ -42,7 +43,7 @@ def quantise(pos_mm: np.ndarray, blu_mm: float, start_blu: np.ndarray) -> tuple[
 
 def axis_velocities(pos_mm: np.ndarray, feed_mm_s: np.ndarray, start_mm: np.ndarray) -> np.ndarray:
     """Axis velocities (N, 3) in mm/s: V * dX / DS per period (000 eq. 16), 0 where DS = 0."""
-    pos = _points(pos_mm, "pos_mm")
+    pos = checked_points(pos_mm, "pos_mm")
     start = np.asarray(start_mm, dtype=np.float64)
     if start.shape != (3,) or not np.isfinite(start).all():
         raise ValueError(f"start_mm must be three finite numbers, got {start_mm!r}")
