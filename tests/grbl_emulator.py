@@ -13,15 +13,13 @@ Served over a pty pair or a 127.0.0.1 socket from a thread.
 from __future__ import annotations
 
 import math
-import os
 import re
-import select
 import socket
-import threading
 import time
-import tty
 from collections import deque
 from dataclasses import dataclass, field
+
+from machine.increments.receiver import Endpoint, PtyEndpoint
 
 BANNER = b"Grbl 1.1h ['$' for help]\r\n"
 WORD_RE = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
@@ -314,66 +312,11 @@ class GrblDouble:
         return 0
 
 
-class _Server:
-    def __init__(self, double: GrblDouble):
-        self.double = double
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-
-    def start(self):
-        self._thread.start()
-        return self
-
-    def stop(self):
-        self._stop.set()
-        self._thread.join(timeout=5)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.stop()
-
-    def _pump(self, fd_read, read, write) -> bool:
-        """One step: False when the peer went away."""
-        d = self.double
-        ready, _, _ = select.select([fd_read], [], [], 0.0005)
-        now = time.monotonic()
-        if ready:
-            try:
-                data = read()
-            except OSError:
-                return False
-            if not data:
-                return False
-            d.receive(data, now)
-        d.tick(now)
-        if d.outbox:
-            out, d.outbox = bytes(d.outbox), bytearray()
-            try:
-                write(out)
-            except OSError:
-                return False
-        return True
-
-
-class PtyServer(_Server):
+class PtyServer(PtyEndpoint):
     """The double on the master side of a pty pair; `port` is the slave's device path."""
 
-    def __init__(self, double: GrblDouble):
-        super().__init__(double)
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.port = os.ttyname(self.slave)
 
-    def _run(self):
-        while not self._stop.is_set():
-            self._pump(self.master, lambda: os.read(self.master, 4096), lambda b: os.write(self.master, b))
-        os.close(self.master)
-        os.close(self.slave)
-
-
-class SocketServer(_Server):
+class SocketServer(Endpoint):
     """The double behind 127.0.0.1:<port>; serves one connection after another, keeping
     its machine state across them (like a board whose host went away)."""
 
@@ -388,7 +331,7 @@ class SocketServer(_Server):
         self.connections = 0
 
     def _run(self):
-        d = self.double
+        d = self.target
         while not self._stop.is_set():
             try:
                 conn, _ = self.sock.accept()

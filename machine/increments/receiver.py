@@ -118,8 +118,9 @@ class IncrementReceiver:
         self.position_blu = self.position_blu + inc.sum(axis=0)
 
 
-class _Endpoint:
-    """Runs a receiver-like object (receive/tick/outbox) behind a transport in a thread."""
+class Endpoint:
+    """Runs a byte-protocol state machine (receive/tick/outbox) behind a transport in a thread:
+    the increment receiver here, and the grbl test double in tests/."""
 
     def __init__(self, target, mangle=None):
         self.target = target
@@ -162,7 +163,7 @@ class _Endpoint:
         return True
 
 
-class PtyEndpoint(_Endpoint):
+class PtyEndpoint(Endpoint):
     """The receiver on a pty's master side; `port` is the slave device to open."""
 
     def __init__(self, target, mangle=None):
@@ -178,7 +179,7 @@ class PtyEndpoint(_Endpoint):
         os.close(self.slave)
 
 
-class SocketEndpoint(_Endpoint):
+class SocketEndpoint(Endpoint):
     """The receiver behind 127.0.0.1:<port>, one connection after another."""
 
     def __init__(self, target, mangle=None, host: str = "127.0.0.1", port: int = 0):
