@@ -159,7 +159,7 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
 
     Analytic pieces also get a sample end_gap_mm from each end, so that the short
     stretch next to a sharp corner (where the planner halves the path acceleration) stays
-    short.
+    short; a shorter one gets its midpoint instead.
     """
     n_int = np.maximum(np.ceil(pc.length / MAX_SPACING_MM), np.ceil(pc.omega * pc.length / MAX_TURN_RAD))
     n_int = np.maximum(n_int, 1).astype(np.int64)
@@ -171,11 +171,16 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])
     j = np.arange(len(piece)) - np.repeat(first, counts)
     sigma = pc.length[piece] * j / n_int[piece]
-    gap = (pc.kind == KIND_ANALYTIC) & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
-    if gap.any():
-        g = np.nonzero(gap)[0]
-        piece = np.concatenate([piece, g, g])
-        sigma = np.concatenate([sigma, np.full(len(g), end_gap_mm), pc.length[g] - end_gap_mm])
+    analytic = pc.kind == KIND_ANALYTIC
+    gap = analytic & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
+    # a short piece between two corners gets its midpoint: the profile is linear in v^2
+    # between samples, so without it the piece is crossed at its slower corner's speed
+    mid = analytic & ~gap & (n_int == 1) & (end_gap_mm > 0)
+    if gap.any() or mid.any():
+        g, h = np.nonzero(gap)[0], np.nonzero(mid)[0]
+        piece = np.concatenate([piece, g, g, h])
+        sigma = np.concatenate([sigma, np.full(len(g), end_gap_mm), pc.length[g] - end_gap_mm,
+                                0.5 * pc.length[h]])
         order = np.lexsort((sigma, piece))
         piece, sigma = piece[order], sigma[order]
         counts = np.bincount(piece, minlength=len(pc))

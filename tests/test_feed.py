@@ -336,3 +336,22 @@ def test_stellabee_excerpt_stays_within_limits():
     _, out, start = run(ents, start_mm=start)
     assert_within_limits(out["pos_mm"], start)
     assert out["line"].min() == 6 and out["line"].max() == 5 + last - first + 1
+
+
+def test_short_step_over_between_nurbs_accelerates_in_between():
+    """A 0.2 mm G01 step-over between two NURBS passes (unblended 90 degree corners at both
+    ends, as in programs/finish_nurbs.nc) is crossed accelerate-then-brake, not at the
+    corners' crawl: its time lies between the triangle bounds at the full and at the
+    halved (CORNER_SHARE) axis acceleration, from finite differences of the positions."""
+    L, F = 0.2, 50.0
+    knots = np.array([0, 0, 0, 1, 1, 1.0])
+    out_pass = Nurbs(1, 2, knots, np.ones(3), np.array([[0, 0, 0], [5, 0, 0.5], [10, 0, 0.0]]), F)
+    back = Nurbs(3, 2, knots, np.ones(3), np.array([[10, L, 0], [5, L, 0.5], [0, L, 0.0]]), F)
+    _, out, start = run([out_pass, Line(2, (10, 0, 0), (10, L, 0), F), back])
+    on_line = out["line"] == 2
+    t_line = on_line.sum() * T
+    a = A[1] * ACCEL_USE
+    assert 2 * np.sqrt(L / A[1]) <= t_line <= 2 * np.sqrt(L / (0.5 * a)) + 3 * T, t_line
+    v, _ = finite_differences(out["pos_mm"], start)
+    assert np.abs(v[on_line, 1]).max() >= 0.9 * np.sqrt(0.5 * a * L)  # peak of the half-accel triangle
+    assert_within_limits(out["pos_mm"], start)
