@@ -159,7 +159,7 @@ class FeedPlanner:
     def _add_nurbs(self, e: Nurbs) -> int:
         idx = self._n_nurbs
         self._n_nurbs += 1
-        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e), self.method)
+        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e, end_gap_mm=2 * self._v_top * self.T), self.method)
         return idx
 
     def _build_pending_event(self, e) -> None:

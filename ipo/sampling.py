@@ -20,6 +20,7 @@ MAX_TURN_RAD = 0.03
 MAX_SPACING_MM = 2.0
 _NURBS_START_PER_SPAN = 16
 _NURBS_REFINE_ROUNDS = 6
+_END_LEVELS = 4  # samples near each end of a NURBS (nurbs_table)
 
 
 @dataclass(slots=True)
@@ -125,8 +126,14 @@ def _nurbs_frame(e, u: np.ndarray):
     return speed, t, kv
 
 
-def nurbs_table(e) -> NurbsTable:
-    """Adaptive arc-length table of a NURBS entity."""
+def nurbs_table(e, end_gap_mm: float = 0.0) -> NurbsTable:
+    """Adaptive arc-length table of a NURBS entity.
+
+    With end_gap_mm > 0 the table also gets samples end_gap_mm * 4^-j (j < _END_LEVELS)
+    from each end: the profile is linear in v^2 between samples (a constant path
+    acceleration), and the machine brakes into an unblended corner at a curve's end
+    within about that distance, at the halved acceleration of the interval next to it.
+    """
     if _is_bezier3(e):  # a corner blend: the same table, compiled
         *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
                                   MAX_TURN_RAD, MAX_SPACING_MM)
@@ -148,10 +155,23 @@ def nurbs_table(e) -> NurbsTable:
         split = np.minimum(split, 64)
         extra = [np.linspace(u[i], u[i + 1], split[i] + 1)[1:-1] for i in np.nonzero(split > 1)[0]]
         u = np.unique(np.concatenate([u] + extra))
+    if end_gap_mm > 0:
+        u = _with_end_samples(e, u, end_gap_mm)
     speed, t, kv = _nurbs_frame(e, u)
     mid_speed, _, _ = _nurbs_frame(e, 0.5 * (u[:-1] + u[1:]))
     ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
     return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv)
+
+
+def _with_end_samples(e, u: np.ndarray, gap_mm: float) -> np.ndarray:
+    """u with samples about gap_mm * 4^-j of arc length from either end (u by linear
+    interpolation of the trapezoidal arc length; the table's s stays exact)."""
+    speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[:-1] + speed[1:]) * np.diff(u))])
+    if s[-1] <= 3 * gap_mm:
+        return u
+    d = gap_mm * 0.25 ** np.arange(_END_LEVELS)
+    return np.unique(np.concatenate([u, np.interp(np.concatenate([d, s[-1] - d]), s, u)]))
 
 
 def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: float = 0.0) -> Samples:

@@ -355,3 +355,21 @@ def test_short_step_over_between_nurbs_accelerates_in_between():
     v, _ = finite_differences(out["pos_mm"], start)
     assert np.abs(v[on_line, 1]).max() >= 0.9 * np.sqrt(0.5 * a * L)  # peak of the half-accel triangle
     assert_within_limits(out["pos_mm"], start)
+
+
+def test_nurbs_brakes_into_an_unblended_corner_at_the_end():
+    """A NURBS pass ending in an unblended 90 degree corner brakes within the last fraction of
+    a millimetre, not over its last table interval: its time from standstill lies between
+    accelerate-cruise-brake at the full axis limit and with braking at the halved one
+    (CORNER_SHARE), cruise from the arc length by scipy's quadrature of |C'(u)|."""
+    from scipy.integrate import quad
+
+    F = 15.0
+    pts = np.array([[0, 0, 0], [5, 0, 0.5], [10, 0, 0.0]])
+    e = Nurbs(1, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.ones(3), pts, F)
+    length = quad(lambda u: np.linalg.norm(2 * ((1 - u) * (pts[1] - pts[0]) + u * (pts[2] - pts[1]))), 0, 1)[0]
+    _, out, start = run([e, Line(2, (10, 0, 0), (10, 5, 0), F)])
+    t_curve = (out["line"] == 1).sum() * T
+    a = A[0] * ACCEL_USE
+    assert length / F + F / A[0] - 2 * T <= t_curve <= length / F + F / (2 * a) + F / a + 4 * T, t_curve
+    assert_within_limits(out["pos_mm"], start)
