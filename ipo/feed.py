@@ -30,7 +30,7 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import CORNER_SHARE, axis_velocity_cap, sample_caps, spread_min
+from ipo.limits import CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, sample_caps, spread_min
 from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
 from ipo.reference_word import quantise
@@ -256,7 +256,7 @@ class FeedPlanner:
             self._override_changed = False
             smp = self._smp
             cap, reason = self._soft_caps()
-            ascale = np.where(self._corner[:-1] | self._corner[1:], CORNER_SHARE, 1.0)
+            ascale = self._ascale(len(smp), cap)
             x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._x0, 0.0)
             x[x < _STANDSTILL_X] = 0.0  # rounding residue of braking to a stop is a stop
             if final:
@@ -285,10 +285,19 @@ class FeedPlanner:
         if final and self._smp is not None and len(self._smp) <= 1:
             self._reset_window()
 
+    def _ascale(self, n: int, cap: np.ndarray) -> np.ndarray:
+        """Share of the path acceleration in the first n - 1 sample intervals: halved next to
+        sharp corners; in S-curve mode also kept within the jerk on curves (jerk_accel_scale)."""
+        scale = np.where(self._corner[:n - 1] | self._corner[1:n], CORNER_SHARE, 1.0)
+        if self._j_max is not None:
+            scale = np.minimum(scale, jerk_accel_scale(self._smp.t[:n], self._smp.kv[:n], cap[:n], self.a_max,
+                                                       float(self._j_max.min())))
+        return scale
+
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
         smp = self._smp
-        ascale = np.where(self._corner[:c] | self._corner[1:c + 1], CORNER_SHARE, 1.0)
+        ascale = self._ascale(c + 1, cap)
         loc = smp.piece[:c + 1] - self._piece_base
         feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))

@@ -96,6 +96,19 @@ def spread_min(s, cap, span_s, accel):
     return out
 
 
+def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np.ndarray,
+                     j_mm_s3: float) -> np.ndarray:
+    """Share of the path acceleration in each of the K - 1 intervals (S-curve mode) that keeps
+    the rate of change of the centripetal acceleration from speeding up on a curve,
+    d(v^2 kappa)/dt = 2 v s'' kappa, within j_mm_s3: v from the cap at either end, s'' up to
+    what the axis limits allow along the tangent, min_i A_i / |t_i|."""
+    with np.errstate(divide="ignore"):
+        a_path = np.min(a_max[None, :] / np.abs(t), axis=1)
+        w = np.sqrt(np.minimum(x_cap, 1e12)) * np.linalg.norm(kv, axis=1) * np.minimum(a_path, 1e12)
+        rate = 2.0 * np.maximum(w[:-1], w[1:])
+        return np.minimum(1.0, j_mm_s3 / rate)
+
+
 def chord_cap(s: np.ndarray, kv: np.ndarray, delta_mm: float, period_s: float,
               x_other: np.ndarray) -> np.ndarray:
     """Chord error within delta for every chord a period can span.

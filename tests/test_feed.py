@@ -246,7 +246,7 @@ def test_start_mismatch_is_an_error():
         list(plan_periods([Line(1, (1, 0, 0), (2, 0, 0), 10.0)], BASE, start_mm=(0, 0, 0)))
 
 
-@pytest.mark.parametrize("name", ["line", "g2", "nurbs", "blended_corner"])
+@pytest.mark.parametrize("name", ["line", "g2", "nurbs", "blended_corner", "tiny_rapid_blend"])
 def test_scurve_mode_limits_jerk(name):
     """S-curve mode: finite-difference jerk within J (plus float noise), accel within A."""
     cfg = dataclasses.replace(FINE, accel_mode="scurve")
@@ -255,7 +255,11 @@ def test_scurve_mode_limits_jerk(name):
             "g2": [Arc(1, (10, 0, 0), (10, 0, 0), (0, 0, 0), "XY", False, 50.0)],
             "nurbs": [quarter_nurbs(50.0)],
             "blended_corner": [Line(1, (0, 0, 0), (10, 0, 0), 40.0, PathControl(blend_tol_mm=0.2)),
-                               Line(2, (10, 0, 0), (20, 10, 0), 40.0, PathControl(blend_tol_mm=0.2))]}[name]
+                               Line(2, (10, 0, 0), (20, 10, 0), 40.0, PathControl(blend_tol_mm=0.2))],
+            # g6_farfalla's start: a 90 degree rapid corner under G64 P0.01, a blend of radius
+            # 0.024 mm crossed between two stops (its curvature step is too high to cross)
+            "tiny_rapid_blend": [Rapid(1, (0, 0, 0), (0, 0, 10), G64), Rapid(2, (0, 0, 10), (54.5, 52.1, 10), G64)],
+            }[name]
     _, out, start = run(ents, cfg=cfg)
     v, a = finite_differences(out["pos_mm"], start)
     jerk = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / T
