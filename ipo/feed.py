@@ -11,7 +11,7 @@ Bounded memory: the planner holds a window that reaches one stopping distance be
 what it commits, and it emits the committed part chunk by chunk.
 
 S-curve mode (accel_mode = "scurve"): the per-period path steps pass a moving average
-over A / J seconds (ipo.scurve), the planner gives the tangential and centripetal
+over 2 A / J seconds (ipo.scurve), the planner gives the tangential and centripetal
 shares half of each axis limit each, caps are spread over what the filter mixes, and
 unblended corners become stops.
 
@@ -86,13 +86,15 @@ class FeedPlanner:
         self._fir = None
         self._j_max = None
         if config.accel_mode == "scurve":
-            # the filter's own ramps use up to half of J (half of A over A / J seconds); the
-            # steps of curvature where pieces meet get the other half
+            # the filter's own ramps use up to half of J; the steps of curvature where pieces
+            # meet and the centripetal acceleration along curves get the other half
             self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * (0.5 * ACCEL_USE)
             # the filter shifts the path acceleration along the path against the centripetal
             # share planned for each point: each gets half of every axis limit
             self.a_max = self.a_max / 2
-            self._fir = MovingAverage.for_limits(np.array([a.max_accel_mm_s2 for a in config.axes]),
+            # a planned reversal from +A/2 to -A/2 steps an axis acceleration by A: the filter
+            # spreads it over 2 A / J seconds, a jerk of J / 2
+            self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
         self._n_nurbs = 0
         self._rpm = 0.0

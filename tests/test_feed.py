@@ -246,7 +246,8 @@ def test_start_mismatch_is_an_error():
         list(plan_periods([Line(1, (1, 0, 0), (2, 0, 0), 10.0)], BASE, start_mm=(0, 0, 0)))
 
 
-@pytest.mark.parametrize("name", ["line", "g2", "nurbs", "blended_corner", "tiny_rapid_blend"])
+@pytest.mark.parametrize("name", ["line", "g2", "nurbs", "blended_corner", "tiny_rapid_blend",
+                                  "reversal_at_blend"])
 def test_scurve_mode_limits_jerk(name):
     """S-curve mode: finite-difference jerk within J (plus float noise), accel within A."""
     cfg = dataclasses.replace(FINE, accel_mode="scurve")
@@ -259,6 +260,11 @@ def test_scurve_mode_limits_jerk(name):
             # g6_farfalla's start: a 90 degree rapid corner under G64 P0.01, a blend of radius
             # 0.024 mm crossed between two stops (its curvature step is too high to cross)
             "tiny_rapid_blend": [Rapid(1, (0, 0, 0), (0, 0, 10), G64), Rapid(2, (0, 0, 10), (54.5, 52.1, 10), G64)],
+            # accelerating out of one G64 P0.1 blend and braking straight into the next: the
+            # planned acceleration reverses from +A/2 to -A/2 (g1_lhchips4, source line 290)
+            "reversal_at_blend": [Line(i + 1, p, q, 100.0, PathControl(blend_tol_mm=0.1)) for i, (p, q) in
+                                  enumerate(zip([(0, 0, 0), (5, 0, 0), (6, 0.2, 0)],
+                                                [(5, 0, 0), (6, 0.2, 0), (11, 0.2, 0)]))],
             }[name]
     _, out, start = run(ents, cfg=cfg)
     v, a = finite_differences(out["pos_mm"], start)
