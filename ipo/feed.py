@@ -305,13 +305,16 @@ class FeedPlanner:
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
-        # a period is limited by a cap where either end of its interval runs at that cap,
-        # else it is accelerating or braking
+        # a period is limited by a cap where both ends of its interval run at their caps, or
+        # one does and the speed stays level; else it is accelerating or braking (away from
+        # a corner's cap, into a stop)
         k0, k1 = src[:-1], src[:-1] + 1
         with np.errstate(divide="ignore", invalid="ignore"):
             r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
             r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
-        seg_reason = np.where(r0, reason[k0], np.where(r1, reason[k1], LIMIT_ACCEL)).astype(np.int8)
+        level = np.abs(xs[1:] - xs[:-1]) <= 0.01 * np.maximum(xs[:-1], xs[1:])
+        seg_reason = np.where(r0 & (r1 | level), reason[k0],
+                              np.where(r1 & level, reason[k1], LIMIT_ACCEL)).astype(np.int8)
         tc = la.sample_times(s, xs)
         c_ref = len(s) - 1
         t_next = self._phase

@@ -11,7 +11,7 @@ from scipy.interpolate import BSpline
 from ipo.config import Finishing, default_config
 from ipo.feed import ACCEL_USE, FeedPlanner, plan_periods
 from ipr import iter_entities, parse_text
-from ipo.period import LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
+from ipo.period import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
 from ipr.entities import (EXACT_STOP, MOTION_TYPES, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop)
 
@@ -364,6 +364,8 @@ def test_short_step_over_between_nurbs_accelerates_in_between():
     assert 2 * np.sqrt(L / A[1]) <= t_line <= 2 * np.sqrt(L / (0.5 * a)) + 3 * T, t_line
     v, _ = finite_differences(out["pos_mm"], start)
     assert np.abs(v[on_line, 1]).max() >= 0.9 * np.sqrt(0.5 * a * L)  # peak of the half-accel triangle
+    # accelerating away from a corner's cap and braking into the next is reported as such
+    assert np.mean(out["limit"][on_line] == LIMIT_ACCEL) >= 0.9
     assert_within_limits(out["pos_mm"], start)
 
 
