@@ -13,8 +13,9 @@ their entity and are walked by its stepper; the planner only samples their geome
 Corner blending (G64 P): the corner between two line-like moves is replaced by the
 circular arc tangent to both whose deviation from the corner is P,
 R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
-(theta the change of direction). G61, P0 and corners that involve an arc or a NURBS are
-not blended; the planner limits the speed there instead.
+(theta the change of direction); a corner between a line and an arc, or two arcs, gets a
+cubic of the same size. G61, P0 and corners that involve a NURBS are not blended: the
+planner crosses them within one period at the corner cap (ipo.limits.corner_cap).
 """
 from __future__ import annotations
 
