@@ -3,9 +3,8 @@
 Pipeline per window of entities: pieces (ipo.pieces: lines, arcs, G64 corner blends,
 NURBS) -> samples (ipo.sampling) -> caps on v^2 from every limit (ipo.limits, 002's
 roughness limiter included) -> look-ahead profile (ipo.lookahead) -> time
-parameterisation at the interpolation period -> points (lines, arcs and blends evaluated
-exactly by arc length; a NURBS walked by its stepper from ipo.steppers with the target
-step v*T of each period) -> BLU increments (ipo.reference_word.quantise).
+parameterisation at the interpolation period -> points and BLU increments of each
+period (ipo.period_output; a NURBS walked by its stepper with the target step v*T).
 
 Bounded memory: the planner holds a window that reaches one stopping distance beyond
 what it commits, and it emits the committed part chunk by chunk.
@@ -31,9 +30,9 @@ import numpy as np
 from ipo import lookahead as la
 from ipo.config import MachineConfig
 from ipo.limits import CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, sample_caps, spread_min
-from ipo.period import LIMIT_ACCEL, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
-from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, KIND_NURBS, Motion, Pieces, build, evaluate
-from ipo.reference_word import quantise
+from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
+from ipo.period_output import PeriodOutput, period_reasons
+from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build
 from ipo.roughness import cusp_height_mm
 from ipo.nurbs_driver import NurbsDriver
 from ipo.sampling import Samples, nurbs_table, sample
@@ -64,9 +63,8 @@ class FeedPlanner:
         self.T = config.period_s
         self.v_max = np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE
         self.a_max = np.array([a.max_accel_mm_s2 for a in config.axes]) * ACCEL_USE
-        self.pos = np.array(start_mm, dtype=float)
-        self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
-        # look-ahead state: pieces and samples not yet emitted, and where the machine is
+        # look-ahead state: pieces and samples not yet emitted (where the machine stands is
+        # the output side's, self._output)
         self._motions: list[tuple] = []  # pending (entity, rpm, nurbs index), as Motion
         self._trim = 0.0
         self._pieces: Pieces | None = None
@@ -82,7 +80,6 @@ class FeedPlanner:
         self._events: list[tuple[float, object]] = []
         self._nurbs: dict[int, NurbsDriver] = {}
         self._s_last = 0.0  # planned arc length at the end of the last period
-        self._s_out = 0.0  # arc length of the last period sent (S-curve filter output)
         self._fir = None
         self._j_max = None
         if config.accel_mode == "scurve":
@@ -96,6 +93,8 @@ class FeedPlanner:
             # spreads it over 2 A / J seconds, a jerk of J / 2
             self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
+        # the output side runs the filter; the planner reads only its span (fir.m)
+        self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
         self._n_nurbs = 0
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
@@ -137,7 +136,7 @@ class FeedPlanner:
                     self._rpm = e.rpm if e.direction is not None else 0.0
             elif isinstance(e, Dwell):
                 yield from self._flush()
-                yield from self._stand(e.seconds, e.line)
+                yield from self._output.stand(e.seconds, e.line)
             elif isinstance(e, (Stop, ToolChange, ProgramEnd)):
                 yield from self._flush()
                 yield e
@@ -148,9 +147,10 @@ class FeedPlanner:
         yield from self._flush()
 
     def _check_start(self, e) -> None:
-        if np.max(np.abs(np.array(e.start) - self.pos)) > _START_TOL_MM:
+        pos = self._output.pos
+        if np.max(np.abs(np.array(e.start) - pos)) > _START_TOL_MM:
             raise ValueError(f"line {e.line}: motion starts at {list(e.start)} but the machine "
-                             f"stands at {self.pos.tolist()}")
+                             f"stands at {pos.tolist()}")
 
     def _take_motion(self, e) -> None:
         """Arcs and NURBS (lines take the lean path in run)."""
@@ -305,16 +305,7 @@ class FeedPlanner:
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
-        # a period is limited by a cap where both ends of its interval run at their caps, or
-        # one does and the speed stays level; else it is accelerating or braking (away from
-        # a corner's cap, into a stop)
-        k0, k1 = src[:-1], src[:-1] + 1
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
-            r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
-        level = np.abs(xs[1:] - xs[:-1]) <= 0.01 * np.maximum(xs[:-1], xs[1:])
-        seg_reason = np.where(r0 & (r1 | level), reason[k0],
-                              np.where(r1 & level, reason[k1], LIMIT_ACCEL)).astype(np.int8)
+        seg_reason = period_reasons(xs, src, cap, reason)
         tc = la.sample_times(s, xs)
         c_ref = len(s) - 1
         t_next = self._phase
@@ -358,68 +349,9 @@ class FeedPlanner:
             self._phase = self.T
 
     def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
-        """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
-        filter (ipo.scurve) in that mode; `flush` runs the filter out at a stop."""
-        if self._fir is None:
-            yield from self._batch(sv, s_prev, limit)
-            return
-        smooth = self._fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
-        if flush:
-            limit = np.concatenate([limit, np.full(self._fir.m - 1, LIMIT_ACCEL, np.int8)])
-        s_f = self._s_out + np.cumsum(smooth)
-        if flush:
-            s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
-        prev = self._s_out
-        self._s_out = float(s_f[-1])
-        yield from self._batch(s_f, prev, limit)
-
-    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray) -> Iterator:
-        """Points at arc lengths sv, quantised; split where events sit."""
-        loc = np.clip(np.searchsorted(self._pstart, sv, side="right") - 1, 0, len(self._pstart) - 1)
-        # a period ending exactly on a piece boundary belongs to the piece it completes
-        on_edge = (loc > 0) & (sv <= self._pstart[loc] + 1e-12)
-        loc = loc - on_edge
-        sigma = np.clip(sv - self._pstart[loc], 0.0, self._pieces.length[loc])
-        pos = evaluate(self._pieces, loc, sigma)
-        nurbs = self._pieces.kind[loc] == KIND_NURBS
-        if nurbs.any():
-            self._nurbs_points(pos, loc, sv, s_prev, nurbs)
-        blend = np.nonzero(self._pieces.kind[loc] == KIND_BLEND)[0]
-        for p in np.unique(loc[blend]):
-            at = blend[loc[blend] == p]
-            drv = self._nurbs[int(self._pieces.nurbs[p])]
-            pos[at] = drv.table.points_at(drv.entity, sv[at] - self._pstart[p])
-        feed = np.diff(sv, prepend=s_prev) / self.T
-        line = self._pieces.line[loc]
-        inc, end = quantise(pos, self.cfg.blu_mm, self.blu)
-        qpos = (self.blu + np.cumsum(inc, axis=0)) * self.cfg.blu_mm
-        self.blu = end
-        self.pos = pos[-1].copy()
-        cut = 0
-        while self._events and self._events[0][0] <= sv[-1] + 1e-9:
-            s_ev, ev = self._events.pop(0)
-            j = max(int(np.searchsorted(sv, s_ev + 1e-9, side="right")), cut)
-            if j > cut:
-                yield PeriodBatch(qpos[cut:j], inc[cut:j], feed[cut:j], limit[cut:j], line[cut:j])
-            cut = j
-            yield ev
-        if cut < len(sv):
-            yield PeriodBatch(qpos[cut:], inc[cut:], feed[cut:], limit[cut:], line[cut:])
-
-    def _nurbs_points(self, pos, loc, sv, s_prev, mask) -> None:
-        idx = np.nonzero(mask)[0]
-        runs = np.split(idx, np.nonzero(np.diff(idx) != 1)[0] + 1)
-        for run in runs:
-            p = int(loc[run[0]])
-            if not np.all(loc[run] == p):
-                sub = np.split(run, np.nonzero(np.diff(loc[run]) != 0)[0] + 1)
-            else:
-                sub = [run]
-            for r in sub:
-                p = int(loc[r[0]])
-                before = sv[r[0] - 1] if r[0] > 0 else s_prev
-                drv = self._nurbs[int(self._pieces.nurbs[p])]
-                pos[r] = drv.points(sv[r] - self._pstart[p], before - self._pstart[p])
+        """Periods to the output side, with the window as it stands now."""
+        return self._output.periods(sv, s_prev, limit, self._pieces, self._pstart, self._nurbs, self._events,
+                                    flush=flush)
 
     def _drop(self, k: int) -> None:
         """Forget samples before k and the pieces no sample refers to any more."""
@@ -427,7 +359,7 @@ class FeedPlanner:
         self._cap, self._reason, self._corner = self._cap[k:], self._reason[k:], self._corner[k:]
         first = int(self._smp.piece[0]) - self._piece_base
         if self._fir is not None:  # the filter output lags: keep the pieces it still needs
-            lag = int(np.searchsorted(self._pstart, self._s_out, side="right")) - 1
+            lag = int(np.searchsorted(self._pstart, self._output.s_out, side="right")) - 1
             first = min(first, max(lag, 0))
         if first > 0:
             for i in np.unique(self._pieces.nurbs[:first]):
@@ -444,15 +376,6 @@ class FeedPlanner:
         self._pstart = np.zeros(0)
         self._cap, self._reason, self._corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
         self._x0 = 0.0
-
-    def _stand(self, seconds: float, line: int) -> Iterator[PeriodBatch]:
-        n = int(round(seconds / self.T))
-        while n > 0:
-            k = min(n, self.batch_periods)
-            qpos = np.repeat((self.blu * self.cfg.blu_mm)[None, :], k, axis=0)
-            yield PeriodBatch(qpos, np.zeros((k, 3), np.int64), np.zeros(k),
-                              np.full(k, LIMIT_DWELL, np.int8), np.full(k, line, np.int32))
-            n -= k
 
 
 def _own_length(m: tuple, nurbs: dict) -> float:
