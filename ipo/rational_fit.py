@@ -207,7 +207,11 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     scale = max(float(np.ptp(q, axis=0).max()), 1e-300)
     history: list[float] = []
     worst_prev = np.inf
-    best = None
+    # the weights-1 solve is a candidate too: with as many control points as points it interpolates,
+    # and the weight step and parameter correction can only move away from it
+    wp = _solve_wp(basis_matrix(knots, degree, u, n_ctrl), q, w)
+    err = q - eval_homogeneous(knots, degree, wp, w, u)
+    best = (float(np.sqrt(np.sum(err**2) / max(r - 1, 1))), wp, w.copy(), u.copy())
     converged = False
     for _ in range(max_iter):
         n_mat = basis_matrix(knots, degree, u, n_ctrl)
@@ -217,7 +221,7 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
         u = _correct_params(knots, degree, wp, w, q, u)
         err = q - eval_homogeneous(knots, degree, wp, w, u)
         f_l = float(np.sqrt(np.sum(err**2) / max(r - 1, 1)))  # 001 App. I step 5
-        if best is None or f_l < best[0]:
+        if f_l < best[0]:
             best = (f_l, wp.copy(), w.copy(), u.copy())
         if history and (history[-1] - f_l < rel_delta * history[-1] or f_l < 1e-12 * scale):
             history.append(f_l)
