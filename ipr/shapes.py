@@ -32,9 +32,11 @@ MAX_DIGITS = 30   # longer numbers take the full grammar, which rejects non-fini
 _SHAPE_CACHE = 4096
 _D = MAX_DIGITS
 _NUM = rf"(?:[0-9]{{1,{_D}}}(?:\.[0-9]{{0,{_D}}})?|\.[0-9]{{1,{_D}}})"
-_AFTER_LETTER = "(?<=[A-FH-LN-Za-fh-ln-z])"          # not after G or M: codes stay in the shape
-_WORD_SLOT = re.compile(rf"({_AFTER_LETTER}[-+]?{_NUM})(?![0-9])")
-_ANY_SLOT = re.compile(rf"({_AFTER_LETTER}[-+]?{_NUM}|(?<=[\[*/+\-= \t]){_NUM})(?![0-9])")
+# Not after G or M: codes stay in the shape. A line number takes no sign in the grammar, so a
+# sign after N stays in the shape too (and sends "N-0" to the full grammar, which rejects it).
+_WORD_NUMBER = rf"(?:(?<=[A-FH-LO-Za-fh-lo-z])[-+]?|(?<=[Nn])){_NUM}"
+_WORD_SLOT = re.compile(rf"({_WORD_NUMBER})(?![0-9])")
+_ANY_SLOT = re.compile(rf"({_WORD_NUMBER}|(?<=[\[*/+\-= \t]){_NUM})(?![0-9])")
 _SIMPLE_SHAPE = re.compile(r"[ \t]*(?:/[ \t]*)?(?:(?:[GMgm](?:[0-9]+\.?[0-9]*|\.[0-9]+)|"
                            r"[A-FH-LN-Za-fh-ln-z]\x00)[ \t]*)*\r?\n?")
 MARK = "\x00"   # a slot in a shape; a line containing it takes the full grammar

@@ -80,12 +80,13 @@ def test_fast_path_equals_full_grammar_on_examples():
                  "Y[#2*-56.12] Z[#3*-27.725]", "#1 = .5", "#[1+2]=3 X-[2]", "X--5 (note 5)",
                  "G1 X[1-2-3] F[#4*100]", "X[-2**2] Y[SIN[30]]", "(MSG, part 5)", "#<a>=[1 EQ 1]"]:
         assert ipr.parse_line(text) == ipr.parse_line_full(text), text
-    errors = []
-    for parse in (ipr.parse_line, ipr.parse_line_full):
-        with pytest.raises(ipr.LineSyntaxError) as info:
-            parse("X[1.5.5]")
-        errors.append((info.value.col, info.value.message))
-    assert errors[0] == errors[1] and errors[0][0] == 6
+    for bad, col in (("X[1.5.5]", 6), ("N-0; ", 2), ("n+3 x1", 2)):   # a line number takes no sign
+        errors = []
+        for parse in (ipr.parse_line, ipr.parse_line_full):
+            with pytest.raises(ipr.LineSyntaxError) as info:
+                parse(bad)
+            errors.append((info.value.col, info.value.message))
+        assert errors[0] == errors[1] and errors[0][0] == col, bad
 
 
 def test_g_and_m_may_repeat_across_groups():
