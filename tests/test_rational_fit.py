@@ -125,10 +125,12 @@ def test_fit_is_never_worse_than_the_weights_1_solve(seed, n_pts, data):
     fit = fit_rational(q, n_ctrl, 3, max_iter=12)
     got = np.linalg.norm(q - evaluate(fit, fit.params), axis=1)
     # the iteration keeps the best f_l (001 App. I step 5, an RMS), so that is what cannot grow;
-    # where the weights-1 solve interpolates, its max error of ~0 cannot grow either
-    assert np.sqrt(np.sum(got**2) / (n_pts - 1)) <= np.sqrt(np.sum(start**2) / (n_pts - 1)) * (1 + 1e-9) + 1e-12
+    # where the weights-1 solve interpolates, its max error of ~0 cannot grow either; the slack is
+    # rounding: two least-squares solves of the same interpolation agree to ~1e-12 of the extent
+    noise_mm = 1e-9 * np.ptp(q, axis=0).max()
+    assert np.sqrt(np.sum(got**2) / (n_pts - 1)) <= np.sqrt(np.sum(start**2) / (n_pts - 1)) * (1 + 1e-9) + noise_mm
     if n_ctrl == n_pts:
-        assert got.max() < 1e-9 * np.ptp(q, axis=0).max()
+        assert got.max() < noise_mm
 
 
 @settings(max_examples=15, deadline=None)
