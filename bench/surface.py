@@ -33,7 +33,7 @@ from ipo.section_fit import fit_sections, fit_shared, section_error  # noqa: E40
 from ipo.skinning import deviation_from_points, skin_patches  # noqa: E402
 from ipo.surface import grid, surface_points  # noqa: E402
 from ipo.toolpath import ToolpathSettings, plan_passes, program_text  # noqa: E402
-from surface_cases import bump, cylinder, saddle  # noqa: E402
+from surface_cases import bump, cylinder, geomdl_surface, saddle  # noqa: E402
 
 
 def um(x: float) -> str:
@@ -127,17 +127,8 @@ def timings() -> None:
 
 def _pyiges_round_trip(path, surf) -> float:
     import pyiges
-    from geomdl import NURBS
     b = pyiges.read(str(path)).bspline_surfaces()[0]
-    n_u, n_v = b.k1 + 1, b.k2 + 1
-    cp = b.control_points().reshape(n_v, n_u, 3).transpose(1, 0, 2)
-    w = np.asarray(b.weights).reshape(n_v, n_u).T
-    g = NURBS.Surface()
-    g.degree_u, g.degree_v = b.m1, b.m2
-    g.ctrlpts_size_u, g.ctrlpts_size_v = n_u, n_v
-    g.ctrlptsw = np.concatenate([cp * w[..., None], w[..., None]], axis=2).reshape(-1, 4).tolist()
-    g.knotvector_u = list(b.knot1 / b.knot1[-1])
-    g.knotvector_v = list(b.knot2 / b.knot2[-1])
+    g = geomdl_surface(b)
     u, v = grid(surf, 40, 40)
     ref = np.array(g.evaluate_list(list(zip(u / b.knot1[-1], v / b.knot2[-1]))))
     return float(np.abs(ref - surface_points(surf, u, v)).max())

@@ -63,3 +63,20 @@ def csv_text(sections: list[np.ndarray]) -> str:
     for h, q in enumerate(sections, 1):
         rows += [f"{h},{float(x)!r},{float(y)!r},{float(z)!r}" for x, y, z in q]
     return "\n".join(rows) + "\n"
+
+
+def geomdl_surface(b):
+    """geomdl's rational surface from a pyiges entity 128 (its knots, weights and control
+    points; pyiges's own to_geomdl drops the weights), knots scaled to [0, 1]."""
+    from geomdl import NURBS
+
+    n_u, n_v = b.k1 + 1, b.k2 + 1
+    cp = b.control_points().reshape(n_v, n_u, 3).transpose(1, 0, 2)  # IGES: first index fastest
+    w = np.asarray(b.weights).reshape(n_v, n_u).T
+    g = NURBS.Surface()
+    g.degree_u, g.degree_v = b.m1, b.m2
+    g.ctrlpts_size_u, g.ctrlpts_size_v = n_u, n_v
+    g.ctrlptsw = np.concatenate([cp * w[..., None], w[..., None]], axis=2).reshape(-1, 4).tolist()
+    g.knotvector_u = list(b.knot1 / b.knot1[-1])
+    g.knotvector_v = list(b.knot2 / b.knot2[-1])
+    return g

@@ -22,6 +22,7 @@ from ipo.nurbs import curve_points
 from ipo.section_fit import fit_shared
 from ipo.skinning import skin
 from ipo.surface import grid, surface_points
+from surface_cases import geomdl_surface
 from surface_cases import bump, cylinder
 
 
@@ -35,17 +36,6 @@ def written(tmp_path_factory):
     return path, surf, curves
 
 
-def _geomdl_surface(b):
-    n_u, n_v = b.k1 + 1, b.k2 + 1
-    cp = b.control_points().reshape(n_v, n_u, 3).transpose(1, 0, 2)  # IGES: first index fastest
-    w = np.asarray(b.weights).reshape(n_v, n_u).T
-    g = NURBS.Surface()
-    g.degree_u, g.degree_v = b.m1, b.m2
-    g.ctrlpts_size_u, g.ctrlpts_size_v = n_u, n_v
-    g.ctrlptsw = np.concatenate([cp * w[..., None], w[..., None]], axis=2).reshape(-1, 4).tolist()
-    g.knotvector_u = list(b.knot1 / b.knot1[-1])
-    g.knotvector_v = list(b.knot2 / b.knot2[-1])
-    return g
 
 
 def test_pyiges_reads_the_rational_surface_back(written):
@@ -57,7 +47,7 @@ def test_pyiges_reads_the_rational_surface_back(written):
     assert not b.flag3  # PROP3 = 0: rational
     assert np.ptp(b.weights) > 1e-3
     u, v = grid(surf, 25, 25)
-    g = _geomdl_surface(b)
+    g = geomdl_surface(b)
     ref = np.array(g.evaluate_list(list(zip(u / b.knot1[-1], v / b.knot2[-1]))))
     err = np.abs(ref - surface_points(surf, u, v)).max()
     print(f"\nIGES 128 round trip via pyiges + geomdl: {err:.2e} mm")
