@@ -75,7 +75,25 @@ def _line_run(g, length, s0, steps, off, pos, u):
     return steps.shape[0], False, 0.0, s
 
 
-class LineStepper:
+class _ChunkStepper:
+    """The stepper contract (ipo/period.py) around a compiled kernel `_run` that fills a
+    whole chunk of periods and advances the subclass's own position state."""
+
+    def advance(self, steps_mm: np.ndarray) -> Steps:
+        if self.done:
+            raise RuntimeError(f"advance() called on a finished {type(self).__name__}")
+        steps, off = _check_steps(steps_mm, self._lead, self._first)
+        n = steps.shape[0]
+        pos = np.empty((n, 3))
+        u = np.empty(n)
+        k, done, carry = self._run(steps, off, pos, u)
+        if n:
+            self._first = False
+        self.done = bool(done)
+        return Steps(pos[:k], u[:k], np.zeros(k, dtype=np.int64), self.done, float(carry))
+
+
+class LineStepper(_ChunkStepper):
     """Rapid (G0) or Line (G1): points every d_j along the straight segment."""
 
     startup_evals = 0
@@ -97,18 +115,9 @@ class LineStepper:
         self._first = True
         self.done = False
 
-    def advance(self, steps_mm: np.ndarray) -> Steps:
-        if self.done:
-            raise RuntimeError("advance() called on a finished LineStepper")
-        steps, off = _check_steps(steps_mm, self._lead, self._first)
-        n = steps.shape[0]
-        pos = np.empty((n, 3))
-        u = np.empty(n)
+    def _run(self, steps, off, pos, u):
         k, done, carry, self._s = _line_run(self._g, self.length_mm, self._s, steps, off, pos, u)
-        if n:
-            self._first = False
-        self.done = bool(done)
-        return Steps(pos[:k], u[:k], np.zeros(k, dtype=np.int64), self.done, float(carry))
+        return k, done, carry
 
 
 # Arc geometry vector g: centre a, centre b, normal at start, start angle, sense (+-1),
@@ -227,7 +236,7 @@ def _arc_run(g, ia, ib, inn, end, th0, steps, off, pos, u):
     return steps.shape[0], False, 0.0, th
 
 
-class ArcStepper:
+class ArcStepper(_ChunkStepper):
     """Arc (G2/G3), helix and full turns: points at chord d_j on the exact curve."""
 
     startup_evals = 0
@@ -261,17 +270,8 @@ class ArcStepper:
         self._first = True
         self.done = False
 
-    def advance(self, steps_mm: np.ndarray) -> Steps:
-        if self.done:
-            raise RuntimeError("advance() called on a finished ArcStepper")
-        steps, off = _check_steps(steps_mm, self._lead, self._first)
-        n = steps.shape[0]
-        pos = np.empty((n, 3))
-        u = np.empty(n)
+    def _run(self, steps, off, pos, u):
         a, b, nn = self._axes
         k, done, carry, self._theta = _arc_run(self._g, a, b, nn, self._end, self._theta,
                                                steps, off, pos, u)
-        if n:
-            self._first = False
-        self.done = bool(done)
-        return Steps(pos[:k], u[:k], np.zeros(k, dtype=np.int64), self.done, float(carry))
+        return k, done, carry
