@@ -190,7 +190,7 @@ class FeedPlanner:
             return
         pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
                          blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
-                         nurbs_length=lambda i: self._nurbs[i].table.length, add_blend=self._add_nurbs)
+                         nurbs=self._nurbs, add_blend=self._add_nurbs)
         if final:
             motions.clear()
         else:

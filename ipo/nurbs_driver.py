@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ipo.sampling import NurbsTable
+from ipo.sampling import NurbsTable, nurbs_table
 from ipo.steppers import make_stepper
+from ipo.subcurve import sub_curve
 
 # The stepper's chords carry a small bias (about 1e-6 of a step, more at start-up);
 # re-reading its arc position this often keeps the lag far below what a drive could feel.
@@ -29,6 +30,12 @@ class NurbsDriver:
         self.gain = 1.0  # realised arc per asked chord, learnt chunk by chunk
         self.chunk = 1  # periods per stepper call: doubles up to RESYNC_PERIODS while the gain settles
         self.end = np.array(entity.points[-1], dtype=float)
+
+    def trimmed(self, u0: float, u1: float) -> "NurbsDriver":
+        """A fresh driver for the part of the curve between parameters u0 and u1 (G64 corner
+        blends took the rest), with its own table."""
+        part = sub_curve(self.entity, u0, u1)
+        return NurbsDriver(part, nurbs_table(part, self.table.end_gap_mm), self.method)
 
     def points(self, sigma: np.ndarray, sigma_before: float) -> np.ndarray:
         """Points at arc lengths sigma (from the curve's start); sigma_before is where the

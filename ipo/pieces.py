@@ -14,8 +14,11 @@ Corner blending (G64 P): the corner between two line-like moves is replaced by t
 circular arc tangent to both whose deviation from the corner is P,
 R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
 (theta the change of direction); a corner between a line and an arc, or two arcs, gets a
-cubic of the same size. G61, P0 and corners that involve a NURBS are not blended: the
-planner crosses them within one period at the corner cap (ipo.limits.corner_cap).
+cubic of the same size. A corner that involves a NURBS gets a cubic sized by the same
+rule and checked against the programmed corner (ipo.nurbs_corner); the NURBS is trimmed to
+the part between its blends (ipo.subcurve), which its stepper walks. G61 and P0 corners,
+reversals and corners where no blend fits are not blended: the planner crosses them within
+one period at the corner cap (ipo.limits.corner_cap).
 """
 from __future__ import annotations
 
@@ -24,6 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ipo import nurbs as nk
+from ipo.nurbs_corner import Side, corner_blend
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 KIND_ANALYTIC = 0
@@ -33,6 +38,7 @@ _COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
 _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
 _CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs are crossed as they are
 _MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 nm step)
+_BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])
 
 
 @dataclass(slots=True)
@@ -134,14 +140,16 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
 
 
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, nurbs_length, add_blend) -> tuple[Pieces, float]:
+          rapid_mm_s: float, nurbs, add_blend) -> tuple[Pieces, float]:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
     Without `final`, the last motion is held back (its end corner needs the next move);
     the returned trim is how much of its start the corner blend already took: pass it
     back as lead_trim_mm with the held-back motion first in the next call.
-    `nurbs_length(i)` gives the arc length of the NURBS with owner index i;
-    `add_blend(nurbs_entity)` registers a corner blend curve and returns its index.
+    `nurbs` maps the owner's NURBS index to its driver (ipo.nurbs_driver: entity, arc-length
+    table, trimmed()); a NURBS trimmed by corner blends gets the driver of its remaining part
+    at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
+    its index.
     """
     n = len(motions)
     ents = [m[0] for m in motions]
@@ -164,6 +172,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
     arcs = _empty(n)  # the untrimmed arcs, for their lengths, tangents and points
     is_arc = np.zeros(n, bool)
+    is_nurbs = np.array([k is Nurbs for k in kinds])
     t_in, t_out = unit.copy(), unit.copy()
     for i, e in enumerate(ents):
         if isinstance(e, Arc):
@@ -172,6 +181,10 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             length[i] = arcs.length[i]
             ends = frame(arcs, np.array([i, i]), np.array([0.0, length[i]]))[0]
             t_in[i], t_out[i] = ends
+        elif is_nurbs[i]:
+            tab = nurbs[motions[i][2]].table
+            length[i] = tab.length
+            t_in[i], t_out[i] = tab.t[0], tab.t[-1]
     # corner blends: junction j joins moves j and j+1
     trim_in, trim_out = np.zeros(n), np.zeros(n)
     trim_in[0] = lead_trim_mm
@@ -195,6 +208,15 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     half_c = np.where(curve, 0.5 * theta, 0.25)
     r_c = np.minimum(tol[:-1] / (1.0 / np.cos(half_c) - 1.0), avail / np.tan(half_c))
     d = np.where(curve, r_c * np.tan(half_c), d)
+    at_nurbs = ((is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
+                & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
+    nurbs_blends = {}
+    for j in np.nonzero(at_nurbs)[0]:
+        before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
+        after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
+        found = corner_blend(before, after, float(theta[j]), float(tol[j]), float(avail[j]))
+        if found is not None:
+            d[j], nurbs_blends[j] = found
     trim_out[:-1] = d
     trim_in[1:] += d
     emit = n if final else n - 1
@@ -226,24 +248,67 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         ta = _tangent(arcs, unit, is_arc, j, length[j] - d[j])
         tb = _tangent(arcs, unit, is_arc, j + 1, d[j])
         h = 4.0 / 3.0 * np.tan(0.25 * theta[j]) * r_c[j]  # cubic approximation of a circular arc
-        cubic = Nurbs(int(lines[j]), 3, np.array([0, 0, 0, 0, 1, 1, 1, 1.0]), np.ones(4),
-                      np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), float(feed[j]))
-        idx = add_blend(cubic)
-        pc.kind[bl[j]] = KIND_BLEND
-        pc.nurbs[bl[j]] = idx
-        pc.length[bl[j]] = nurbs_length(idx)
-        pc.c[bl[j]] = a_pt
+        _put_blend(pc, bl[j], np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), nurbs, add_blend)
+    for j, ctrl in nurbs_blends.items():
+        _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for i in np.nonzero(~ll)[0]:
         e, slot = ents[i], 2 * i
         if isinstance(e, Arc):
             _copy_trimmed_arc(pc, slot, arcs, i, trim_in[i], trim_out[i])
         else:
-            pc.kind[slot] = KIND_NURBS
-            pc.nurbs[slot] = motions[i][2]
-            pc.length[slot] = nurbs_length(motions[i].nurbs_index)
-            pc.c[slot] = start[i]
+            _trimmed_nurbs(pc, slot, motions[i][2], nurbs, trim_in[i], trim_out[i])
     keep = pc.length > _MIN_PIECE_MM  # blends may leave float-noise remnants of a straight
     return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
+
+
+def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:
+    """The cubic with control points ctrl as the blend piece in slot (whose line and feed,
+    those of the move before it, are set)."""
+    idx = add_blend(Nurbs(int(pc.line[slot]), 3, _BEZIER3_KNOTS.copy(), np.ones(4), ctrl,
+                          float(pc.feed_mm_s[slot])))
+    pc.kind[slot] = KIND_BLEND
+    pc.nurbs[slot] = idx
+    pc.length[slot] = nurbs[idx].table.length
+    pc.c[slot] = ctrl[0]
+
+
+def _trimmed_nurbs(pc: Pieces, slot: int, k: int, nurbs, trim_in: float, trim_out: float) -> None:
+    """The NURBS with owner index k without its first trim_in and last trim_out millimetres of
+    arc length; its driver is replaced by the one of that part (dropped if nothing is left)."""
+    drv = nurbs[k]
+    tab = drv.table
+    if trim_in > 0 or trim_out > 0:
+        if tab.length - trim_in - trim_out <= _MIN_PIECE_MM:
+            del nurbs[k]
+            pc.length[slot] = 0.0  # dropped with the other remnants
+            return
+        u0, u1 = tab.u_at(drv.entity, np.array([trim_in, tab.length - trim_out]))
+        drv = nurbs[k] = drv.trimmed(float(u0), float(u1))
+    pc.kind[slot] = KIND_NURBS
+    pc.nurbs[slot] = k
+    pc.length[slot] = drv.table.length
+    pc.c[slot] = drv.entity.points[0]
+
+
+def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_end: bool) -> Side:
+    """Move i next to a corner at its end (from_end) or start, by distance from the corner."""
+    sign, base = (-1.0, length[i]) if from_end else (1.0, 0.0)
+    if isinstance(e, Nurbs):
+        drv = nurbs[k]
+
+        def derivs(x):
+            u = drv.table.u_at(drv.entity, base + sign * np.asarray(x, dtype=float))
+            return nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, 1)
+
+        def tangent(x):
+            d1 = derivs(np.array([x]))[1][0]
+            return d1 / np.linalg.norm(d1)
+
+        return Side(lambda x: derivs(x)[0], tangent)
+    if isinstance(e, Arc):
+        return Side(lambda x: evaluate(arcs, np.full(len(x), i), base + sign * x),
+                    lambda x: frame(arcs, np.array([i]), np.array([base + sign * x]))[0][0])
+    return Side(lambda x: start[i] + unit[i] * (base + sign * x)[:, None], lambda x: unit[i])
 
 
 def _point(arcs: Pieces, start, unit, is_arc, i: int, sigma: float) -> np.ndarray:

@@ -55,6 +55,7 @@ class NurbsTable:
     speed: np.ndarray
     t: np.ndarray
     kv: np.ndarray
+    end_gap_mm: float = 0.0  # the end samples' gap (nurbs_table), for tables of trimmed parts
 
     def s_of_u(self, u: float) -> float:
         """Arc length at u: cubic Hermite on s(u) with ds/du known at the samples."""
@@ -65,15 +66,20 @@ class NurbsTable:
         return float(h00 * self.s[k] + h10 * h * self.speed[k] + h01 * self.s[k + 1] + h11 * h * self.speed[k + 1])
 
     def points_at(self, e, s: np.ndarray) -> np.ndarray:
-        """Points of NURBS e at arc lengths s: u from the table, then Newton on the arc
+        """Points of NURBS e at arc lengths s (see u_at)."""
+        if _is_bezier3(e):
+            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, np.clip(s, 0.0, self.length),
+                                    _GAUSS_X, _GAUSS_W)
+        return _derivs(e, self.u_at(e, s), 0)[0]
+
+    def u_at(self, e, s: np.ndarray) -> np.ndarray:
+        """Parameters of NURBS e at arc lengths s: u from the table, then Newton on the arc
         length (integrated by 5-point Gauss-Legendre from the nearest sample)."""
         s = np.clip(s, 0.0, self.length)
         k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
         h = self.s[k + 1] - self.s[k]
         q = np.divide(s - self.s[k], h, out=np.zeros_like(s), where=h > 0)
         u = self.u[k] + q * (self.u[k + 1] - self.u[k])
-        if _is_bezier3(e):
-            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, s, _GAUSS_X, _GAUSS_W)
         xg, wg = _GAUSS_X, _GAUSS_W
         for _ in range(3):
             du = u - self.u[k]
@@ -83,7 +89,7 @@ class NurbsTable:
             s_u = self.s[k] + 0.5 * du * (sp @ wg)
             speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
             u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
-        return _derivs(e, u, 0)[0]
+        return u
 
     def curvature_at(self, s: np.ndarray) -> np.ndarray:
         return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
@@ -160,7 +166,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0) -> NurbsTable:
     speed, t, kv = _nurbs_frame(e, u)
     mid_speed, _, _ = _nurbs_frame(e, 0.5 * (u[:-1] + u[1:]))
     ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
-    return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv)
+    return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv, end_gap_mm)
 
 
 def _with_end_samples(e, u: np.ndarray, gap_mm: float) -> np.ndarray:

@@ -350,14 +350,15 @@ def test_stellabee_excerpt_stays_within_limits():
 
 def test_short_step_over_between_nurbs_accelerates_in_between():
     """A 0.2 mm G01 step-over between two NURBS passes (unblended 90 degree corners at both
-    ends, as in programs/finish_nurbs.nc) is crossed accelerate-then-brake, not at the
+    ends under G64 P0) is crossed accelerate-then-brake, not at the
     corners' crawl: its time lies between the triangle bounds at the full and at the
     halved (CORNER_SHARE) axis acceleration, from finite differences of the positions."""
     L, F = 0.2, 50.0
     knots = np.array([0, 0, 0, 1, 1, 1.0])
-    out_pass = Nurbs(1, 2, knots, np.ones(3), np.array([[0, 0, 0], [5, 0, 0.5], [10, 0, 0.0]]), F)
-    back = Nurbs(3, 2, knots, np.ones(3), np.array([[10, L, 0], [5, L, 0.5], [0, L, 0.0]]), F)
-    _, out, start = run([out_pass, Line(2, (10, 0, 0), (10, L, 0), F), back])
+    p0 = PathControl(blend_tol_mm=0.0)
+    out_pass = Nurbs(1, 2, knots, np.ones(3), np.array([[0, 0, 0], [5, 0, 0.5], [10, 0, 0.0]]), F, p0)
+    back = Nurbs(3, 2, knots, np.ones(3), np.array([[10, L, 0], [5, L, 0.5], [0, L, 0.0]]), F, p0)
+    _, out, start = run([out_pass, Line(2, (10, 0, 0), (10, L, 0), F, p0), back])
     on_line = out["line"] == 2
     t_line = on_line.sum() * T
     a = A[1] * ACCEL_USE
@@ -370,7 +371,7 @@ def test_short_step_over_between_nurbs_accelerates_in_between():
 
 
 def test_nurbs_brakes_into_an_unblended_corner_at_the_end():
-    """A NURBS pass ending in an unblended 90 degree corner brakes within the last fraction of
+    """A NURBS pass ending in an unblended 90 degree corner (G64 P0) brakes within the last fraction of
     a millimetre, not over its last table interval: its time from standstill lies between
     accelerate-cruise-brake at the full axis limit and with braking at the halved one
     (CORNER_SHARE), cruise from the arc length by scipy's quadrature of |C'(u)|."""
@@ -378,9 +379,10 @@ def test_nurbs_brakes_into_an_unblended_corner_at_the_end():
 
     F = 15.0
     pts = np.array([[0, 0, 0], [5, 0, 0.5], [10, 0, 0.0]])
-    e = Nurbs(1, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.ones(3), pts, F)
+    p0 = PathControl(blend_tol_mm=0.0)
+    e = Nurbs(1, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.ones(3), pts, F, p0)
     length = quad(lambda u: np.linalg.norm(2 * ((1 - u) * (pts[1] - pts[0]) + u * (pts[2] - pts[1]))), 0, 1)[0]
-    _, out, start = run([e, Line(2, (10, 0, 0), (10, 5, 0), F)])
+    _, out, start = run([e, Line(2, (10, 0, 0), (10, 5, 0), F, p0)])
     t_curve = (out["line"] == 1).sum() * T
     a = A[0] * ACCEL_USE
     assert length / F + F / A[0] - 2 * T <= t_curve <= length / F + F / (2 * a) + F / a + 4 * T, t_curve
