@@ -135,7 +135,7 @@ def rational_table(quick: bool) -> None:
         rat = fewest_ctrl(q, FitSettings(tol), m_max)
         plain = fewest_ctrl(q, FitSettings(tol, rational=False), m_max)
         geo = _geomdl_min_ctrl(q, tol, m_max)
-        show = [str(len(f.points)) if f is not None else f">{m_max}" for f in (rat, plain)]
+        show = [str(len(f[0].points)) if f is not None else f">{m_max}" for f in (rat, plain)]
         print(f"{name:40s} {tol * 1e3:5.0f} {show[0]:>9s} {show[1]:>11s} {geo if geo else f'>{m_max}':>7} "
               f"{time.perf_counter() - t0:6.1f}")
 

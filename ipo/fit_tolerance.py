@@ -17,13 +17,15 @@ from typing import Callable
 
 import numpy as np
 
-from ipo.rational_fit import RationalFit, SpanPolynomials, fit_rational, golden_section
+from ipo.fit_jit import foot_params
+from ipo.rational_fit import RationalFit, SpanPolynomials, evaluate, fit_rational
 
 SAMPLE_SPACING_MM = 0.02  # densest spacing of check points along a segment
 MIN_SAMPLES, MAX_SAMPLES = 4, 64  # per data interval
 WINDOW = 3  # segments either side of a curve sample's own interval that it is checked against
 MAX_POINTS_PER_FIT = 400  # longer polylines are cut into equal parts first
 MAX_CTRL = 48  # a piece needing more control points is split instead
+GOOD_ENOUGH = 0.5  # a fit stops improving once every data point is this fraction of the tolerance close
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,7 +64,9 @@ def _interval_samples(lo: np.ndarray, hi: np.ndarray, counts: np.ndarray) -> tup
 def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     """Upper bound of the two-way distance between the curve and the polyline q."""
     u = fit.params
-    evaluate = SpanPolynomials(fit.knots, fit.degree).curve(fit.points * fit.weights[:, None], fit.weights)
+    spans = SpanPolynomials(fit.knots, fit.degree)
+    wp = fit.points * fit.weights[:, None]
+    evaluate = spans.curve(wp, fit.weights)
 
     counts = _samples_per_interval(q)
     n_seg = len(q) - 1
@@ -82,7 +86,7 @@ def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     def dist2(x):
         return np.sum((seg_pts - evaluate(x)) ** 2, axis=1)
 
-    foot = golden_section(dist2, lo, hi, iterations=28)
+    foot = foot_params(spans.homogeneous(wp, fit.weights), spans.starts, seg_pts, lo, hi, 28)
     to_curve = np.sqrt(np.minimum(dist2(foot), np.minimum(dist2(lo), dist2(hi))))
     return float(max(to_poly.max(), to_curve.max()))
 
@@ -101,20 +105,26 @@ class FitSettings:
     rational: bool = True
 
 
-def _try(q: np.ndarray, m: int, s: FitSettings, warm: RationalFit | None) -> tuple[RationalFit, bool]:
-    """Fit with m control points, starting from a previous fit's parameters (rescaled) if given."""
+def _try(q: np.ndarray, m: int, s: FitSettings, warm: RationalFit | None) -> tuple[RationalFit, float | None]:
+    """Fit with m control points, starting from a previous fit's parameters (rescaled) if given,
+    and its checked deviation (None where it is not within tolerance)."""
     params = None
     if warm is not None:
         params = warm.params * (m - s.degree) / (len(warm.points) - s.degree)
-    fit = fit_rational(q, m, s.degree, max_iter=s.max_iter, rel_delta=s.rel_delta,
-                       rational=s.rational, params=params, give_up_above=s.tol_mm)
-    ok = (np.all(np.isfinite(fit.points)) and fit.rms_history[-1] <= s.tol_mm
-          and max_deviation(fit, q) <= s.tol_mm)
-    return fit, bool(ok)
+    fit = fit_rational(q, m, s.degree, max_iter=s.max_iter, rel_delta=s.rel_delta, rational=s.rational,
+                       params=params, give_up_above=s.tol_mm, good_below=GOOD_ENOUGH * s.tol_mm)
+    if not np.all(np.isfinite(fit.points)):
+        return fit, None
+    # the data points' distances to their own curve points first: far cheaper than the two-way
+    # check; after the parameter correction they are the distances to the curve (within its bracket)
+    if np.max(np.linalg.norm(q - evaluate(fit, fit.params), axis=1)) > s.tol_mm:
+        return fit, None
+    dev = max_deviation(fit, q)
+    return fit, (dev if dev <= s.tol_mm else None)
 
 
-def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> RationalFit | None:
-    """Smallest control-point count <= m_max whose fit is within tolerance.
+def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> tuple[RationalFit, float] | None:
+    """Smallest control-point count <= m_max whose fit is within tolerance, and its deviation.
 
     m_max is tried first (a piece that fails there is not worth fitting, and most
     failures end after a few iterations); then doubling from degree + 1 up to the
@@ -124,20 +134,20 @@ def fewest_ctrl(q: np.ndarray, s: FitSettings, m_max: int) -> RationalFit | None
     m_max = min(m_max, len(q))
     if m_max < lo:
         return None
-    best, ok = _try(q, m_max, s, None)
-    if not ok:
+    best = _try(q, m_max, s, None)
+    if best[1] is None:
         return None
     bad, hi, m = lo - 1, m_max, lo
     while m < hi:
-        fit, ok = _try(q, m, s, best)
-        if ok:
+        fit = _try(q, m, s, best[0])
+        if fit[1] is not None:
             hi, best = m, fit
             break
         bad, m = m, 2 * m
     while hi - bad > 1:
         mid = (hi + bad) // 2
-        fit, ok = _try(q, mid, s, best)
-        if ok:
+        fit = _try(q, mid, s, best[0])
+        if fit[1] is not None:
             hi, best = mid, fit
         else:
             bad = mid
@@ -197,12 +207,13 @@ def _fit_range(q: np.ndarray, first: int, last: int, s: FitSettings,
     while m_max > 0 and blocks(m_max) >= g01_blocks:
         m_max -= 1
     data = densify(sub[_dedupe(sub)])
-    fit = fewest_ctrl(data, s, m_max)
-    if fit is None:
+    found = fewest_ctrl(data, s, m_max)
+    fit = None if found is None else found[0]
+    if found is None:
         whole = [Piece(first, last, None, 0.0, "no fit within tolerance saves blocks")]
         whole_blocks = g01_blocks
     else:
-        whole = [Piece(first, last, fit, max_deviation(fit, data), data=data)]
+        whole = [Piece(first, last, fit, found[1], data=data)]
         whole_blocks = blocks(len(fit.points))
     min_moves = s.degree + 2
     worth_splitting = fit is None or len(fit.points) > MAX_CTRL // 2

@@ -19,9 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.fit_jit import foot_params
 from ipo.nurbs import basis, find_span
 
 GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
+GOLDEN_STEPS = 20  # golden-section steps of the parameter correction: the bracket shrinks to 1e-4
 MIN_WEIGHT = 1e-3  # relative to the largest weight; keeps the curve away from a pole
 
 
@@ -107,13 +109,18 @@ class SpanPolynomials:
             vals = vals * x[:, None] + c[:, power]
         return self.spans[k], vals
 
-    def curve(self, wp: np.ndarray, w: np.ndarray):
-        """u -> C(u) for fixed homogeneous control points (001 eq. 10): the numerator and
-        denominator are folded into one polynomial per span up front."""
+    def homogeneous(self, wp: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """The numerator and denominator of C(u) (001 eq. 10) as one polynomial per span,
+        shape (S, power, dim+1)."""
         p = self.degree
         idx = self.spans[:, None] - p + np.arange(p + 1)[None, :]
         homog = np.concatenate([wp, w[:, None]], axis=1)[idx]  # (S, function, dim+1)
-        poly = np.einsum("skf,sfd->skd", self.coef, homog)  # (S, power, dim+1)
+        return np.einsum("skf,sfd->skd", self.coef, homog)
+
+    def curve(self, wp: np.ndarray, w: np.ndarray):
+        """u -> C(u) for fixed homogeneous control points."""
+        p = self.degree
+        poly = self.homogeneous(wp, w)
 
         def at(u: np.ndarray) -> np.ndarray:
             k = np.clip(np.searchsorted(self.starts, u, side="right") - 1, 0, len(self.starts) - 1)
@@ -187,7 +194,8 @@ def _positive_step(w_old: np.ndarray, w_new: np.ndarray) -> np.ndarray:
 
 def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int = 30,
                  rel_delta: float = 1e-3, rational: bool = True,
-                 params: np.ndarray | None = None, give_up_above: float | None = None) -> RationalFit:
+                 params: np.ndarray | None = None, give_up_above: float | None = None,
+                 good_below: float | None = None) -> RationalFit:
     """001 Appendix I on arrays: q (r, dim) data, n_ctrl control points (r >= n_ctrl).
 
     Stops when f_{l-1} - f_l < rel_delta * f_{l-1} (or f_l is ~0), or after max_iter
@@ -195,7 +203,8 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     (a non-rational least-squares fit with the same parameter correction).
     give_up_above: stop early once the largest data-point error, falling at its
     current rate for the iterations left, cannot get below this value (the
-    caller's tolerance: the fit is then of no use to it)."""
+    caller's tolerance: the fit is then of no use to it); good_below: stop as soon as every
+    data point is within this distance of its curve point (the caller needs no better fit)."""
     q = np.asarray(q, dtype=float)
     r = len(q)
     if r < n_ctrl:
@@ -228,6 +237,10 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
             converged = True
             break
         worst = float(np.sqrt(np.max(np.sum(err**2, axis=1))))
+        if good_below is not None and worst <= good_below and f_l <= best[0]:
+            history.append(f_l)
+            converged = True
+            break
         if give_up_above is not None:
             left = max_iter - len(history) - 1
             if worst - left * max(worst_prev - worst, 0.0) > give_up_above:
@@ -297,14 +310,10 @@ def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:
     """Each interior u_j by golden section in [u_{j-1}, u_{j+1}]; ends stay pinned."""  # 001 eq. 10-11
     if len(u) <= 2:
         return u
-    inner = q[1:-1]
-    curve = SpanPolynomials(knots, degree).curve(wp, w)
-
-    def dist2(uu):
-        return np.sum((inner - curve(uu)) ** 2, axis=1)
-
+    spans = SpanPolynomials(knots, degree)
     new = u.copy()
-    new[1:-1] = golden_section(dist2, u[:-2], u[2:])
+    new[1:-1] = foot_params(spans.homogeneous(wp, w), spans.starts, np.ascontiguousarray(q[1:-1]),
+                            u[:-2], u[2:], GOLDEN_STEPS)
     return np.maximum.accumulate(new)
 
 

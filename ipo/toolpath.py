@@ -133,8 +133,9 @@ def _fit_span(surf, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFit],
     settings = FitSettings(tol_mm=FIT_FRACTION * s.tol_mm, degree=s.degree)
     fit = None
     for m_max in (FIRST_CTRL, MAX_CTRL):  # fewest_ctrl tries m_max first: a small one first is cheaper
-        fit = fewest_ctrl(c, settings, min(len(c), m_max))
-        if fit is not None:
+        found = fewest_ctrl(c, settings, min(len(c), m_max))
+        if found is not None:
+            fit = found[0]
             break
     if fit is not None:
         dev = offset_deviation(surf, fit, u, v, r)
