@@ -3,9 +3,11 @@
 - circle_g2.nc: a circle of radius 10 mm as one G2;
 - circle_g1_360.nc: the same circle as 360 G1 chords;
 - circle_nurbs.nc: the same circle as a rational quadratic G06.2 (9 control points, weights 1 and sqrt(2)/2);
-- finish_g01.nc: ball-end finishing (r = 3 mm, pick feed 0.2 mm, F5000, S12500, two flutes) of the
-  analytic surface z = 5 exp(-((x-10)^2 + (y-10)^2) / 40) + 0.05 x over a 20 x 20 mm patch, raster
-  passes along X (zig-zag), chords within 1 um of the exact tool-tip path: our version of 002 Fig. 7;
+- finish_g01.nc: ball-end finishing (r = 3 mm, pick feed 0.2 mm, F5000, S12500, two flutes) of a
+  120 x 40 mm mould panel: a sphere of radius 150 mm with a broad bulge,
+  z = sqrt(150^2 - (x-60)^2 - (y-20)^2) - 150 + 6 exp(-((x-85)^2 + (y-25)^2) / 3200),
+  raster passes along X (zig-zag), chords within 1 um of the exact tool-tip path: our version of
+  002 Fig. 7 (002's part is larger still: 210,522 G01 lines);
 - finish_nurbs.nc: finish_g01.nc with its G01 runs fitted by `vcnc fit` at 5 um (002 Fig. 8).
 """
 from __future__ import annotations
@@ -21,14 +23,21 @@ R_CIRCLE_MM = 10.0
 BALL_R_MM = 3.0
 PICK_MM = 0.2
 CHORD_TOL_MM = 0.001
-PATCH_MM = 20.0
+PATCH_X_MM, PATCH_Y_MM = 120.0, 40.0
 FIT_TOL_MM = 0.005
+SPHERE_R_MM = 150.0
+SPHERE_CENTRE_MM = (60.0, 20.0)
+BULGE_MM, BULGE_CENTRE_MM, BULGE_WIDTH_MM2 = 6.0, (85.0, 25.0), 3200.0
 
 
 def surface(x, y):
-    """Height z(x, y) and its gradient: a bump with steep flanks (up to ~35 deg) on a gentle tilt."""
-    e = 5.0 * np.exp(-((x - 10.0) ** 2 + (y - 10.0) ** 2) / 40.0)
-    return e + 0.05 * x, -e * (x - 10.0) / 20.0 + 0.05, -e * (y - 10.0) / 20.0
+    """Height z(x, y) and its gradient: the sphere's cap with the bulge on it (slopes up to 29 deg)."""
+    dx, dy = x - SPHERE_CENTRE_MM[0], y - SPHERE_CENTRE_MM[1]
+    root = np.sqrt(SPHERE_R_MM**2 - dx**2 - dy**2)
+    bx, by = x - BULGE_CENTRE_MM[0], y - BULGE_CENTRE_MM[1]
+    e = BULGE_MM * np.exp(-(bx**2 + by**2) / BULGE_WIDTH_MM2)
+    k = 2.0 / BULGE_WIDTH_MM2
+    return root - SPHERE_R_MM + e, -dx / root - k * e * bx, -dy / root - k * e * by
 
 
 def tool_tip(xc, y0):
@@ -106,14 +115,15 @@ def circle_programs() -> dict[str, str]:
 def finishing_program() -> str:
     lines = [
         "(finish_g01: ball-end finishing, r = 3 mm, two flutes, pick feed 0.2 mm, F5000, S12500)",
-        "(surface z = 5 exp[-[[x-10]^2 + [y-10]^2] / 40] + 0.05 x over X0..20 Y0..20, tool-tip coordinates)",
+        "(mould panel over X0..120 Y0..40: sphere R150 about X60 Y20 with a bulge 6 exp[-r^2/3200] at X85 Y25)",
+        "(tool-tip coordinates)",
         f"(raster along X, zig-zag; G01 chords within {CHORD_TOL_MM * 1e3:g} um of the exact tool path)",
         "G21 G17 G90 G94 G64",
         "S12500 M3",
         "G0 Z15",
     ]
-    xc = np.linspace(0.0, PATCH_MM, 20001)
-    n_pass = int(round(PATCH_MM / PICK_MM)) + 1
+    xc = np.linspace(0.0, PATCH_X_MM, int(round(PATCH_X_MM / 0.01)) + 1)  # dense enough: sagitta << 1 nm
+    n_pass = int(round(PATCH_Y_MM / PICK_MM)) + 1
     for k in range(n_pass):
         y0 = k * PICK_MM
         dense = tool_tip(xc, y0)

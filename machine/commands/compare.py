@@ -29,6 +29,7 @@ ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining ti
 SLOW_FRACTION = 0.5
 MIN_FEED_SKIP_MM = 1.0
 WINDOW_MM = 2.0
+TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness model
 
 
 def _run(path: Path, config):
@@ -93,7 +94,12 @@ def _roughness(run: dict, config) -> dict:
         raise click.ClickException("roughness needs the spindle speed: the program sets no S with M3/M4")
     idx, speed, _, _ = _cut_periods(run)
     pos = run["trace"]["pos_mm"]
-    tangent = pos[idx] - pos[np.maximum(idx - 1, 0)]
+    # a chord over a few periods: one period's step is a few BLU in Z, too coarse for the slope
+    chord = pos[np.minimum(idx + TANGENT_PERIODS, len(pos) - 1)] - pos[np.maximum(idx - TANGENT_PERIODS, 0)]
+    length = np.linalg.norm(chord, axis=1)
+    if not np.all(length > 0):
+        raise click.ClickException("a cutting period with no motion around it: cannot take its slope")
+    tangent = chord / length[:, None]
     f_i = speed[idx] * 60.0 / (flutes * run["rpm"])  # feed per tooth, mm
     r = rmax_mm(r_mm, f_i, fin.pick_feed_mm, inclination_rad(tangent))
     return {"rmax_max_um": float(r.max() * 1e3), "rmax_mean_um": float(r.mean() * 1e3)}
