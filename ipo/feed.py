@@ -29,7 +29,8 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, sample_caps, spread_min
+from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, sample_caps,
+                        spread_min)
 from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
 from ipo.period_output import PeriodOutput, period_reasons
 from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build
@@ -246,9 +247,8 @@ class FeedPlanner:
         hard = self._cap
         if self._fir is not None:
             span, acc = self._fir.m * self.T, float(self.a_max.max())
-            # a cap too low to cross smoothly (below what the filter mixes in over its span)
-            # becomes a stop, where the filter is run out exactly
-            hard = np.where(hard < (0.5 * acc * span) ** 2, 0.0, hard)
+            # caps below what the filter mixes in over its span: stops where pieces meet
+            hard = low_caps_to_stops(hard, self._smp.piece, (0.5 * acc * span) ** 2)
             hard = spread_min(self._smp.s, hard, span, acc)
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)

@@ -96,6 +96,16 @@ def spread_min(s, cap, span_s, accel):
     return out
 
 
+def low_caps_to_stops(cap: np.ndarray, piece: np.ndarray, x_low: float) -> np.ndarray:
+    """S-curve mode: a cap below x_low (too low for the moving-average filter to cross a step
+    of the curvature smoothly) becomes a stop where pieces meet and at the window's ends, so
+    the curvature steps at standstill; inside a piece the curvature is continuous and the
+    low cap is crossed as it is, not stopped at sample by sample."""
+    edge = np.ones(len(piece), bool)
+    edge[1:-1] = (piece[1:-1] != piece[:-2]) | (piece[1:-1] != piece[2:])
+    return np.where((cap < x_low) & edge, 0.0, cap)
+
+
 def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np.ndarray,
                      j_mm_s3: float) -> np.ndarray:
     """Share of the path acceleration in each of the K - 1 intervals (S-curve mode) that keeps

@@ -24,10 +24,11 @@ _SLACK = 1e-9  # relative: a deviation of P to float rounding passes
 
 class Side(NamedTuple):
     """One move next to the corner, by the distance x (mm of arc length) from the corner:
-    points(x array) -> (N, 3) and its unit tangent in the direction of travel at one x."""
+    at(x) -> (point, unit tangent in the direction of travel) and polyline(x, n) -> (n, 3)
+    points of the move from the corner to x (only dense, not evenly spaced)."""
 
-    points: Callable[[np.ndarray], np.ndarray]
-    tangent: Callable[[float], np.ndarray]
+    at: Callable[[float], tuple[np.ndarray, np.ndarray]]
+    polyline: Callable[[float, int], np.ndarray]
 
 
 def arc_cubic(a: np.ndarray, ta: np.ndarray, b: np.ndarray, tb: np.ndarray) -> np.ndarray:
@@ -59,25 +60,23 @@ def deviation(ctrl: np.ndarray, before: Side, after: Side, d: float, corner: np.
     """The larger of the cubic's largest distance from the two moves' last and first d and
     its distance from the corner point."""
     q = _bezier(ctrl, np.linspace(0.0, 1.0, _CHECK_BLEND))
-    x = np.linspace(0.0, d, _CHECK_SIDE)
-    from_path = np.minimum(_polyline_distance(q, before.points(x)), _polyline_distance(q, after.points(x)))
+    from_path = np.minimum(_polyline_distance(q, before.polyline(d, _CHECK_SIDE)),
+                           _polyline_distance(q, after.polyline(d, _CHECK_SIDE)))
     return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
 
 
-def corner_blend(before: Side, after: Side, theta: float, tol_mm: float, d_max: float
+def corner_blend(before: Side, after: Side, corner: np.ndarray, theta: float, tol_mm: float, d_max: float
                  ) -> tuple[float, np.ndarray] | None:
-    """(d, cubic control points) for the corner of turn theta between `before` and `after`,
-    or None where no blend within tol_mm was found (the planner then crosses the corner at
-    its cap)."""
+    """(d, cubic control points) for the corner point `corner` of turn theta between `before`
+    and `after`, or None where no blend within tol_mm was found (the planner then crosses
+    the corner at its cap)."""
     half = 0.5 * theta
     radius = tol_mm / (1.0 / np.cos(half) - 1.0)  # R (sec(theta/2) - 1) <= P, as in ipo.pieces
     d = min(radius * np.tan(half), d_max)
-    corner = after.points(np.zeros(1))[0]
     for _ in range(_TRIES):
         if not d > 0:
             return None
-        x = np.array([d])
-        ctrl = arc_cubic(before.points(x)[0], before.tangent(d), after.points(x)[0], after.tangent(d))
+        ctrl = arc_cubic(*before.at(d), *after.at(d))
         worst = deviation(ctrl, before, after, d, corner) / tol_mm
         if worst <= 1.0 + _SLACK:
             return d, ctrl

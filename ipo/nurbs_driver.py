@@ -35,7 +35,9 @@ class NurbsDriver:
         """A fresh driver for the part of the curve between parameters u0 and u1 (G64 corner
         blends took the rest), with its own table."""
         part = sub_curve(self.entity, u0, u1)
-        return NurbsDriver(part, nurbs_table(part, self.table.end_gap_mm), self.method)
+        u = self.table.u
+        fine = np.concatenate([[part.knots[0]], u[(u > part.knots[0]) & (u < part.knots[-1])], [part.knots[-1]]])
+        return NurbsDriver(part, nurbs_table(part, self.table.end_gap_mm, fine), self.method)
 
     def points(self, sigma: np.ndarray, sigma_before: float) -> np.ndarray:
         """Points at arc lengths sigma (from the curve's start); sigma_before is where the
@@ -49,7 +51,10 @@ class NurbsDriver:
             self.stepper = make_stepper(self.entity, method=self.method, lead_mm=lead)
         a = 0
         while a < n and not self.stepper.done:
-            b = min(a + self.chunk, n)
+            # towards the curve's end a chunk covers at most half of what is left, so that the
+            # lag it leaves is not corrected in the few periods of a stop
+            half = int(np.searchsorted(target, 0.5 * (self.s_planned + self.table.length), side="right"))
+            b = min(a + self.chunk, n, max(half, a + 1))
             out[a:b] = self._advance(target[a:b], lead if a == 0 else 0.0)
             self.chunk = min(2 * self.chunk, RESYNC_PERIODS)
             a = b

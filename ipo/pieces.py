@@ -214,7 +214,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     for j in np.nonzero(at_nurbs)[0]:
         before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
         after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
-        found = corner_blend(before, after, float(theta[j]), float(tol[j]), float(avail[j]))
+        found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
         if found is not None:
             d[j], nurbs_blends[j] = found
     trim_out[:-1] = d
@@ -295,20 +295,29 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
     sign, base = (-1.0, length[i]) if from_end else (1.0, 0.0)
     if isinstance(e, Nurbs):
         drv = nurbs[k]
+        u_corner = float(e.knots[-1] if from_end else e.knots[0])
 
-        def derivs(x):
-            u = drv.table.u_at(drv.entity, base + sign * np.asarray(x, dtype=float))
-            return nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, 1)
+        known: dict[float, float] = {}
 
-        def tangent(x):
-            d1 = derivs(np.array([x]))[1][0]
-            return d1 / np.linalg.norm(d1)
+        def u_of(x):
+            if x not in known:
+                known[x] = float(drv.table.u_at(drv.entity, np.array([base + sign * x]))[0])
+            return known[x]
 
-        return Side(lambda x: derivs(x)[0], tangent)
+        def at(x):
+            p, d1 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 1)[:, 0]
+            return p, d1 / np.linalg.norm(d1)
+
+        return Side(at, lambda x, n: nk.curve_points(e.degree, e.knots, e.weights, e.points,
+                                                     np.linspace(u_corner, u_of(x), n)))
     if isinstance(e, Arc):
-        return Side(lambda x: evaluate(arcs, np.full(len(x), i), base + sign * x),
-                    lambda x: frame(arcs, np.array([i]), np.array([base + sign * x]))[0][0])
-    return Side(lambda x: start[i] + unit[i] * (base + sign * x)[:, None], lambda x: unit[i])
+        def arc_at(x):
+            sigma = np.array([base + sign * x])
+            return evaluate(arcs, np.array([i]), sigma)[0], frame(arcs, np.array([i]), sigma)[0][0]
+
+        return Side(arc_at, lambda x, n: evaluate(arcs, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
+    return Side(lambda x: (start[i] + unit[i] * (base + sign * x), unit[i]),
+                lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None])
 
 
 def _point(arcs: Pieces, start, unit, is_arc, i: int, sigma: float) -> np.ndarray:

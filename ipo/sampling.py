@@ -132,8 +132,9 @@ def _nurbs_frame(e, u: np.ndarray):
     return speed, t, kv
 
 
-def nurbs_table(e, end_gap_mm: float = 0.0) -> NurbsTable:
-    """Adaptive arc-length table of a NURBS entity.
+def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) -> NurbsTable:
+    """Adaptive arc-length table of a NURBS entity; u_fine, parameters already as fine as the
+    refinement makes them (a part of a tabled curve: ipo.nurbs_driver.trimmed), skips it.
 
     With end_gap_mm > 0 the table also gets samples end_gap_mm * 4^-j (j < _END_LEVELS)
     from each end: the profile is linear in v^2 between samples (a constant path
@@ -149,8 +150,8 @@ def nurbs_table(e, end_gap_mm: float = 0.0) -> NurbsTable:
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])
     u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
-                                  for a, b in zip(brk[:-1], brk[1:])]))
-    for _ in range(_NURBS_REFINE_ROUNDS):
+                                  for a, b in zip(brk[:-1], brk[1:])])) if u_fine is None else u_fine
+    for _ in range(0 if u_fine is not None else _NURBS_REFINE_ROUNDS):
         speed, t, kv = _nurbs_frame(e, u)
         ds = 0.5 * (speed[:-1] + speed[1:]) * np.diff(u)
         kmax = np.maximum(np.linalg.norm(kv[:-1], axis=1), np.linalg.norm(kv[1:], axis=1))
