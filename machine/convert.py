@@ -11,8 +11,11 @@ and weights) is checked against the tolerance again; a piece that fails stays G0
 from __future__ import annotations
 
 import math
+import multiprocessing
+import os
 import re
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -174,8 +177,10 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
 
 
 def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float = DEFAULT_CORNER_DEG,
-                 file: str = "<string>", setup: Setup | None = None) -> tuple[str, ConvertReport]:
-    """The program with its G01 runs fitted within tol_mm, and what was done."""
+                 file: str = "<string>", setup: Setup | None = None,
+                 jobs: int | None = None) -> tuple[str, ConvertReport]:
+    """The program with its G01 runs fitted within tol_mm, and what was done (jobs: worker
+    processes for the fits, default one per core)."""
     if not tol_mm > 0:
         raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
     if not 1 <= degree <= 5:
@@ -191,6 +196,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     replaced: dict[int, list[str]] = {}  # first source line of a run -> its new text
     skip: set[int] = set()
     t0 = time.perf_counter()
+    todo = []
     for run in split_runs(entities, corner_deg=corner_deg, joinable=joinable):
         if len(run) < 2 or run[0].line not in pure:
             continue
@@ -199,7 +205,10 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
         if len(run) <= nurbs_blocks(degree + 1, degree):
             report.short_runs += 1
             continue
-        new = _convert_run(run, lines, frames[run[0].line], tol_mm, degree, report)
+        todo.append(run)
+    settings = [_settings(tol_mm, degree, frames[run[0].line]) for run in todo]
+    for run, pieces in zip(todo, _fit_all([run_vertices(r) for r in todo], settings, jobs)):
+        new = _convert_run(run, pieces, lines, frames[run[0].line], tol_mm, report)
         if new is not None:
             replaced[run[0].line] = new
             skip.update(e.line for e in run)
@@ -217,13 +226,28 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     return result, report
 
 
-def _convert_run(run: list[Line], lines: list[str], frame: Frame, tol_mm: float, degree: int,
+def _settings(tol_mm: float, degree: int, frame: Frame) -> FitSettings:
+    """The fit's own tolerance: T less what rounding the written control points can add."""
+    return FitSettings(tol_mm - rounding_bound_mm(coordinate_digits(tol_mm, frame.unit_mm), frame.unit_mm), degree)
+
+
+def _fit_all(polylines: list[np.ndarray], settings: list[FitSettings], jobs: int | None) -> list[list[Piece]]:
+    """fit_polyline on every run, in worker processes where there is more than one core to use
+    (each run's fit is independent of the others; results come back in order)."""
+    jobs = (os.cpu_count() or 1) if jobs is None else jobs
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    if jobs == 1 or len(polylines) < 2 * jobs:
+        return [fit_polyline(q, s) for q, s in zip(polylines, settings)]
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(fit_polyline, polylines, settings, chunksize=4))
+
+
+def _convert_run(run: list[Line], pieces: list[Piece], lines: list[str], frame: Frame, tol_mm: float,
                  report: ConvertReport) -> list[str] | None:
-    """New text for one run, or None if it stays as it is."""
+    """New text for one run from its fitted pieces, or None if it stays as it is."""
     q = run_vertices(run)
     digits = coordinate_digits(tol_mm, frame.unit_mm)
-    settings = FitSettings(tol_mm - rounding_bound_mm(digits, frame.unit_mm), degree)
-    pieces = fit_polyline(q, settings)
     out: list[str] = []
     after_group = False
     any_group = False

@@ -123,6 +123,20 @@ def test_runs_break_at_feed_changes_and_corners():
     assert rep.runs == 2 and feeds == [2000, 3000]
 
 
+def test_worker_processes_give_the_same_program():
+    # several runs (a feed change ends each), fitted in two worker processes and in this one
+    runs = []
+    for k in range(6):
+        pts, words = _ellipse_run(n=60, z=-1.0 - k)
+        runs += [f"G1 {words[0]} F{3000 + k}"] + words[1:]
+    src = "\n".join(["G21 G90 G17", "G0 X12 Y0 Z-1", *runs, "M2", ""])
+    one, rep1 = convert_text(src, 0.01, jobs=1)
+    two, rep2 = convert_text(src, 0.01, jobs=2)
+    assert rep1.groups >= 6 and one == two and rep1.max_deviation_mm == rep2.max_deviation_mm
+    with pytest.raises(ValueError):
+        convert_text(src, 0.01, jobs=0)
+
+
 def test_bad_input():
     with pytest.raises(ValueError):
         convert_text("G1 X1 F100\n", 0.0)

@@ -1,4 +1,4 @@
-"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30]`: G01 runs -> G06.2.
+"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30] [--jobs N]`: G01 runs -> G06.2.
 
 Fits every run of consecutive G01 moves with 001's rational B-spline approximation
 (the fewest control points within T of the polyline, both ways) and writes the
@@ -43,7 +43,9 @@ def format_report(rep, tol_mm: float) -> str:
 @click.option("--degree", default=3, show_default=True, type=int, help="Curve degree (G06.2 P = degree + 1).")
 @click.option("--corner-deg", default=30.0, show_default=True, type=float,
               help="A turn sharper than this between two moves ends a run.")
-def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float) -> None:
+@click.option("--jobs", type=click.IntRange(min=1), default=None,
+              help="Worker processes for the fits  [default: one per core].")
+def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
     from machine.convert import convert_text
@@ -57,7 +59,7 @@ def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float) -
     with open(src, "rb") as f:
         text = f.read().decode("utf-8", "replace")
     try:
-        result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src)
+        result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)
