@@ -29,6 +29,7 @@ ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining ti
 SLOW_FRACTION = 0.5
 MIN_FEED_SKIP_MM = 1.0
 WINDOW_MM = 2.0
+DETAIL_MM = 250.0  # the zoomed part of the plot
 TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness model
 
 
@@ -158,31 +159,42 @@ def format_table(res: dict) -> str:
 
 
 def _plot(res: dict, out: str) -> None:
+    """The paths and the feeds, whole (top) and over the first DETAIL_MM of cut (bottom): a raster
+    program of a few hundred passes is a filled rectangle at full scale."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, (ax_path, ax_feed) = plt.subplots(1, 2, figsize=(14, 5.5))
+    fig, ((ax_path, ax_feed), (ax_near, ax_near_feed)) = plt.subplots(2, 2, figsize=(14, 10))
     for key, style in (("a", "-"), ("b", "--")):
         run = res["_runs"][key]
+        name = Path(res["files"][key == "b"]).name
         pos = run["trace"]["pos_mm"]
-        ext = np.ptp(pos, axis=0)
-        i, j = np.argsort(ext)[::-1][:2]
-        ax_path.plot(pos[:, i], pos[:, j], style, lw=0.6, label=Path(res["files"][key == "b"]).name)
+        i, j, k = np.argsort(np.ptp(pos, axis=0))[::-1]
+        ax_path.plot(pos[:, i], pos[:, j], style, lw=0.6, label=name)
         ax_path.set_xlabel("XYZ"[i] + " mm")
         ax_path.set_ylabel("XYZ"[j] + " mm")
         idx, speed, _, step = _cut_periods(run)
         s = np.cumsum(step)
-        ax_feed.plot(s[idx], speed[idx] * 60, style, lw=0.6, label=Path(res["files"][key == "b"]).name)
+        ax_feed.plot(s[idx], speed[idx] * 60, style, lw=0.6, label=name)
+        near = idx[s[idx] <= s[idx[0]] + DETAIL_MM]
+        side = k if np.ptp(pos[near, k]) > 0 else j
+        ax_near.plot(pos[near, i], pos[near, side], style, lw=0.8, label=name)
+        ax_near.set_xlabel("XYZ"[i] + " mm")
+        ax_near.set_ylabel("XYZ"[side] + " mm")
+        ax_near_feed.plot(s[near], speed[near] * 60, style, lw=0.8, label=name)
     ax_path.set_title("paths (commanded positions)")
     ax_path.set_aspect("equal", adjustable="datalim")
-    ax_feed.set_xlabel("distance along the path, mm")
-    ax_feed.set_ylabel("feed, mm/min")
     ax_feed.set_title("feed against distance (cutting periods)")
-    for ax in (ax_path, ax_feed):
+    ax_near.set_title(f"the first {DETAIL_MM:g} mm of cut")
+    ax_near_feed.set_title(f"feed over the first {DETAIL_MM:g} mm of cut")
+    for ax in (ax_feed, ax_near_feed):
+        ax.set_xlabel("distance along the path, mm")
+        ax.set_ylabel("feed, mm/min")
+    for ax in (ax_path, ax_feed, ax_near, ax_near_feed):
         ax.legend()
     fig.tight_layout()
-    fig.savefig(out, dpi=130)
+    fig.savefig(out, dpi=110)
     plt.close(fig)
 
 
