@@ -36,9 +36,9 @@ KIND_NURBS = 1  # a NURBS entity: walked by its stepper
 KIND_BLEND = 2  # a corner blend curve (a cubic): evaluated by arc length directly
 _COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
 _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
-_CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs are crossed as they are
+_CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs and NURBS are crossed as they are
 _MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 nm step)
-_BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])
+BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])  # a corner blend: one cubic Bezier span
 
 
 @dataclass(slots=True)
@@ -264,7 +264,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
 def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:
     """The cubic with control points ctrl as the blend piece in slot (whose line and feed,
     those of the move before it, are set)."""
-    idx = add_blend(Nurbs(int(pc.line[slot]), 3, _BEZIER3_KNOTS.copy(), np.ones(4), ctrl,
+    idx = add_blend(Nurbs(int(pc.line[slot]), 3, BEZIER3_KNOTS.copy(), np.ones(4), ctrl,
                           float(pc.feed_mm_s[slot])))
     pc.kind[slot] = KIND_BLEND
     pc.nurbs[slot] = idx
@@ -296,7 +296,6 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
     if isinstance(e, Nurbs):
         drv = nurbs[k]
         u_corner = float(e.knots[-1] if from_end else e.knots[0])
-
         known: dict[float, float] = {}
 
         def u_of(x):

@@ -14,7 +14,7 @@ import numpy as np
 
 from ipo import nurbs as nk
 from ipo.blend_jit import bezier_points_at, bezier_table
-from ipo.pieces import KIND_ANALYTIC, Pieces, frame
+from ipo.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces, frame
 
 MAX_TURN_RAD = 0.03
 MAX_SPACING_MM = 2.0
@@ -99,14 +99,11 @@ class NurbsTable:
         return float(self.s[-1])
 
 
-_BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])
-
-
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
 
 
 def _is_bezier3(e) -> bool:
-    return (e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, _BEZIER3_KNOTS)
+    return (e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, BEZIER3_KNOTS)
             and bool(np.all(e.weights == 1)))
 
 

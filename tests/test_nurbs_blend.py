@@ -18,7 +18,7 @@ from ipo.config import default_config
 from ipo.feed import plan_periods
 from ipo.period import PeriodBatch
 from ipo.subcurve import sub_curve
-from ipr.entities import EXACT_STOP, Line, Message, Nurbs, PathControl
+from ipr.entities import EXACT_STOP, Arc, Line, Message, Nurbs, PathControl
 
 BASE = default_config()
 CFG = dataclasses.replace(BASE, blu_mm=1e-9)  # BLU rounding far below what is checked
@@ -236,3 +236,24 @@ def test_blend_takes_at_most_half_of_a_short_curve():
     assert distance_to_polyline(mid[None], pos)[0] <= DELTA
     assert_within_limits(pos, ents[0].start)
     assert_forward_to_the_end(pos, ents[0].start, ents[-1].end)
+
+
+def test_arc_into_nurbs_corner():
+    """A G3 quarter circle (R5 about (10, 5)) arriving at (15, 5) along +Y into the curve,
+    which leaves along +Y turned 45 degrees to the right: blended within P of the circle
+    and the curve, through the corner at no less than 0.8 sqrt(A R)."""
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    turn = np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]])
+    curve = Nurbs(2, 3, KNOTS, np.ones(6), np.array([15, 5, 0]) + (PTS - PTS[0]) @ turn.T, F, G64P)
+    arc = Arc(1, (10, 0, 0), (15, 5, 0), (10, 5, 0), "XY", True, F, path=G64P)
+    ents = [arc, curve]
+    _, pos, feed = run(ents)
+    ang = np.linspace(-np.pi / 2, 0, 20001)
+    circle = np.c_[10 + 5 * np.cos(ang), 5 + 5 * np.sin(ang), np.zeros_like(ang)]
+    dev = distance_to_polyline(pos, np.vstack([circle, bspline_points(curve, 20001)]))
+    assert dev.max() <= P + DELTA
+    near = np.linalg.norm(pos - [15, 5, 0], axis=1) < 0.5
+    assert dev[near].max() >= 0.5 * P * np.cos(np.pi / 8)  # blended, not crossed at the corner
+    assert corner_feed(pos, feed, np.array([15, 5, 0])) >= 0.8 * np.sqrt(A.min() * blend_radius(np.pi / 4))
+    assert_within_limits(pos, arc.start)
+    assert_forward_to_the_end(pos, arc.start, curve.end)
