@@ -257,3 +257,23 @@ def test_arc_into_nurbs_corner():
     assert corner_feed(pos, feed, np.array([15, 5, 0])) >= 0.8 * np.sqrt(A.min() * blend_radius(np.pi / 4))
     assert_within_limits(pos, arc.start)
     assert_forward_to_the_end(pos, arc.start, curve.end)
+
+
+def test_scurve_mode_crosses_a_tight_nurbs_blend_between_two_stops():
+    """S-curve mode: a blend whose curvature step is too high to cross at speed is stopped
+    at where it meets its neighbours only (limits.low_caps_to_stops), not at each of its
+    samples; jerk within J, acceleration within A, ending on the last point."""
+    cfg = dataclasses.replace(CFG, accel_mode="scurve")
+    j_max = np.array([a.max_jerk_mm_s3 for a in cfg.axes])
+    ents = program(G64P)
+    items = list(plan_periods(ents, cfg, start_mm=ents[0].start))
+    pos = np.concatenate([b.pos_mm for b in items if isinstance(b, PeriodBatch)])
+    feed = np.concatenate([b.feed_mm_s for b in items if isinstance(b, PeriodBatch)])
+    for corner in (PTS[0], PTS[-1]):
+        still = (np.linalg.norm(pos - corner, axis=1) < 0.5) & (feed < 0.01)
+        assert 1 <= int(still[0]) + int(np.sum(still[1:] & ~still[:-1])) <= 2
+    _, a = finite_differences(pos, ents[0].start)
+    jerk = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / T
+    assert np.all(np.abs(a) <= A + 1e-3)
+    assert np.all(np.abs(jerk) <= j_max * 1.01), np.abs(jerk).max(0)
+    assert np.max(np.abs(pos[-1] - ents[-1].end)) <= 1e-9
