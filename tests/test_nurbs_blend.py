@@ -51,12 +51,15 @@ def programmed(ents, n_curve=20001) -> np.ndarray:
         if isinstance(e, Nurbs):
             parts.append(bspline_points(e, n_curve))
         elif isinstance(e, Line):
-            parts.append(np.array([e.start, e.end], float))
+            a, b = np.array(e.start, float), np.array(e.end, float)
+            f = np.linspace(0.0, 1.0, int(np.linalg.norm(b - a) / 0.005) + 2)[:, None]
+            parts.append(a + f * (b - a))
     return np.vstack(parts)
 
 
 def distance_to_polyline(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of each q from the polyline: the segments next to the nearest few vertices."""
+    """Distance of each q from the polyline: the segments next to the nearest few vertices
+    (vertices closer together than the distances that matter)."""
     _, near = cKDTree(poly).query(q, k=4)
     best = np.full(len(q), np.inf)
     for j in range(near.shape[1]):
