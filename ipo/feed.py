@@ -29,8 +29,8 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import MachineConfig
-from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, sample_caps,
-                        spread_min)
+from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, lowest_smooth_x,
+                        min_blend_radius_mm, sample_caps, spread_min)
 from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
 from ipo.period_output import PeriodOutput, period_reasons
 from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build
@@ -94,6 +94,7 @@ class FeedPlanner:
             # spreads it over 2 A / J seconds, a jerk of J / 2
             self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
+        self._blend_r_min = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
         # the output side runs the filter; the planner reads only its span (fir.m)
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
         self._n_nurbs = 0
@@ -191,7 +192,7 @@ class FeedPlanner:
             return
         pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
                          blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
-                         nurbs=self._nurbs, add_blend=self._add_nurbs)
+                         nurbs=self._nurbs, add_blend=self._add_nurbs, min_blend_radius_mm=self._blend_r_min)
         if final:
             motions.clear()
         else:
@@ -247,8 +248,7 @@ class FeedPlanner:
         hard = self._cap
         if self._fir is not None:
             span, acc = self._fir.m * self.T, float(self.a_max.max())
-            # caps below what the filter mixes in over its span: stops where pieces meet
-            hard = low_caps_to_stops(hard, self._smp.piece, (0.5 * acc * span) ** 2)
+            hard = low_caps_to_stops(hard, self._smp.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
             hard = spread_min(self._smp.s, hard, span, acc)
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)

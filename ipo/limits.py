@@ -96,14 +96,31 @@ def spread_min(s, cap, span_s, accel):
     return out
 
 
+def lowest_smooth_x(fir, a_max: np.ndarray, period_s: float) -> float:
+    """S-curve mode: the lowest cap on v^2 the moving-average filter `fir` crosses smoothly,
+    what it mixes in over its span at the path acceleration, (A span / 2)^2."""
+    return (0.5 * float(a_max.max()) * fir.m * period_s) ** 2
+
+
 def low_caps_to_stops(cap: np.ndarray, piece: np.ndarray, x_low: float) -> np.ndarray:
-    """S-curve mode: a cap below x_low (too low for the moving-average filter to cross a step
-    of the curvature smoothly) becomes a stop where pieces meet and at the window's ends, so
-    the curvature steps at standstill; inside a piece the curvature is continuous and the
-    low cap is crossed as it is, not stopped at sample by sample."""
+    """S-curve mode: a cap below x_low (lowest_smooth_x: too low for the filter to cross a
+    step of the curvature smoothly) becomes a stop where pieces meet and at the window's
+    ends, so the curvature steps at standstill; inside a piece the curvature is continuous
+    and the low cap is crossed as it is, not stopped at sample by sample."""
     edge = np.ones(len(piece), bool)
     edge[1:-1] = (piece[1:-1] != piece[:-2]) | (piece[1:-1] != piece[2:])
     return np.where((cap < x_low) & edge, 0.0, cap)
+
+
+def min_blend_radius_mm(fir, a_max: np.ndarray, j_max: np.ndarray | None, period_s: float) -> float:
+    """S-curve mode: the smallest corner blend of radius R crossed without stopping. Below it
+    the blend's caps, where it meets a move v^2 / R <= J T (its curvature steps), along it
+    v^2 / R <= A and v^3 / R^2 <= J, lie under lowest_smooth_x: it would be stopped at both
+    ends, where the unblended corner stops once. 0 without the filter (trapezoid mode)."""
+    if fir is None:
+        return 0.0
+    x_low, j = lowest_smooth_x(fir, a_max, period_s), float(j_max.min())
+    return max(x_low / (j * period_s), x_low / float(a_max.min()), float(np.sqrt(x_low**1.5 / j)))
 
 
 def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np.ndarray,

@@ -140,7 +140,7 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
 
 
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, nurbs, add_blend) -> tuple[Pieces, float]:
+          rapid_mm_s: float, nurbs, add_blend, min_blend_radius_mm: float = 0.0) -> tuple[Pieces, float]:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
     Without `final`, the last motion is held back (its end corner needs the next move);
@@ -149,7 +149,8 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     `nurbs` maps the owner's NURBS index to its driver (ipo.nurbs_driver: entity, arc-length
     table, trimmed()); a NURBS trimmed by corner blends gets the driver of its remaining part
     at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
-    its index.
+    its index. A corner whose blend radius would be below min_blend_radius_mm is not blended
+    (S-curve mode: ipo.limits.min_blend_radius_mm).
     """
     n = len(motions)
     ents = [m[0] for m in motions]
@@ -198,6 +199,8 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     avail = np.minimum(reach[:-1], reach[1:])
     r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
+    blend &= radius >= min_blend_radius_mm
+    radius = np.where(blend, radius, 0.0)
     d = radius * np.tan(half)
     # a corner that involves an arc gets a cubic blend from the point d before it to the
     # point d after it, tangent to both moves, with the handles of a circular arc of
@@ -207,6 +210,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
              & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
     half_c = np.where(curve, 0.5 * theta, 0.25)
     r_c = np.minimum(tol[:-1] / (1.0 / np.cos(half_c) - 1.0), avail / np.tan(half_c))
+    curve &= r_c >= min_blend_radius_mm
     d = np.where(curve, r_c * np.tan(half_c), d)
     at_nurbs = ((is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
                 & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
@@ -215,7 +219,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
         after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
         found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
-        if found is not None:
+        if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
             d[j], nurbs_blends[j] = found
     trim_out[:-1] = d
     trim_in[1:] += d

@@ -262,21 +262,47 @@ def test_arc_into_nurbs_corner():
     assert_forward_to_the_end(pos, arc.start, curve.end)
 
 
-def test_scurve_mode_crosses_a_tight_nurbs_blend_between_two_stops():
-    """S-curve mode: a blend whose curvature step is too high to cross at speed is stopped
-    at where it meets its neighbours only (limits.low_caps_to_stops), not at each of its
-    samples; jerk within J, acceleration within A, ending on the last point."""
+def run_scurve(ents):
     cfg = dataclasses.replace(CFG, accel_mode="scurve")
-    j_max = np.array([a.max_jerk_mm_s3 for a in cfg.axes])
-    ents = program(G64P)
     items = list(plan_periods(ents, cfg, start_mm=ents[0].start))
     pos = np.concatenate([b.pos_mm for b in items if isinstance(b, PeriodBatch)])
     feed = np.concatenate([b.feed_mm_s for b in items if isinstance(b, PeriodBatch)])
-    for corner in (PTS[0], PTS[-1]):
-        still = (np.linalg.norm(pos - corner, axis=1) < 0.5) & (feed < 0.01)
-        assert 1 <= int(still[0]) + int(np.sum(still[1:] & ~still[:-1])) <= 2
     _, a = finite_differences(pos, ents[0].start)
     jerk = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / T
+    j_max = np.array([ax.max_jerk_mm_s3 for ax in cfg.axes])
     assert np.all(np.abs(a) <= A + 1e-3)
     assert np.all(np.abs(jerk) <= j_max * 1.01), np.abs(jerk).max(0)
     assert np.max(np.abs(pos[-1] - ents[-1].end)) <= 1e-9
+    return pos, feed
+
+
+def standstills(pos, feed, where, radius_mm):
+    """Runs of periods below 0.01 mm/s within radius_mm of `where`."""
+    still = (np.linalg.norm(pos - where, axis=1) < radius_mm) & (feed < 0.01)
+    return int(still[0]) + int(np.sum(still[1:] & ~still[:-1]))
+
+
+def test_scurve_mode_stops_once_at_a_corner_too_tight_to_blend():
+    """S-curve mode: the blends of P = 0.01 at 90 and 30 degrees (R = 0.024 and 0.28 mm) lie
+    below limits.min_blend_radius_mm (about 0.49 mm for these limits: the filter's lowest
+    smooth speed sqrt(x_low) = A/2 * 20 ms / 2 = 4.9 mm/s against v^2 <= J/2 T R at the
+    blend's ends), so each corner is one stop on the corner point, not two at the blend's ends."""
+    pos, feed = run_scurve(program(G64P))
+    for corner in (PTS[0], PTS[-1]):
+        assert np.linalg.norm(pos - corner, axis=1).min() <= 1e-9
+        assert standstills(pos, feed, corner, 0.5) == 1
+
+
+def test_scurve_mode_crosses_a_low_cap_inside_a_piece():
+    """S-curve mode: a quarter circle of R 0.03 mm (an exact rational quadratic NURBS) between
+    two tangent lines caps the speed at about sqrt(A/2 R) = 3.8 mm/s, below what the filter
+    crosses smoothly: the machine stops where the curvature steps (the two junctions) and
+    crosses the curve itself at its cap instead of stopping at each of its samples."""
+    r = 0.03
+    arc = Nurbs(2, 2, np.array([0, 0, 0, 1, 1, 1.0]), np.array([1, np.sqrt(0.5), 1]),
+                np.array([[10, 0, 0], [10 + r, 0, 0], [10 + r, r, 0.0]]), F, G64P)
+    ents = [Line(1, (0, 0, 0), (10, 0, 0), F, G64P), arc, Line(3, (10 + r, r, 0), (10 + r, 10, 0), F, G64P)]
+    pos, feed = run_scurve(ents)
+    assert standstills(pos, feed, np.array([10 + r / 2, r / 2, 0]), 0.1) <= 2
+    on_arc = np.abs(np.linalg.norm(pos[:, :2] - [10, r], axis=1) - r) < 1e-6
+    assert on_arc.sum() >= 3 and feed[on_arc].max() > 1.0
