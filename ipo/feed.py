@@ -33,12 +33,13 @@ from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_c
                         min_blend_radius_mm, sample_caps, spread_min)
 from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
 from ipo.period_output import PeriodOutput, period_reasons
-from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build
+from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
 from ipo.roughness import cusp_height_mm
 from ipo.nurbs_driver import NurbsDriver
+from ipo.nurbs_split import corner_parts
 from ipo.sampling import Samples, nurbs_table, sample
 from ipo.scurve import MovingAverage
-from ipr.entities import (MOTION_TYPES, PLANE_AXES, Arc, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+from ipr.entities import (MOTION_TYPES, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
@@ -155,10 +156,11 @@ class FeedPlanner:
                              f"stands at {pos.tolist()}")
 
     def _take_motion(self, e) -> None:
-        """Arcs and NURBS (lines take the lean path in run)."""
+        """Arcs and NURBS, a NURBS as its parts between its corners (lines take the lean path in run)."""
         if self._smp is None and not self._motions:
             self._check_start(e)
-        self._motions.append(Motion(e, self._rpm, self._add_nurbs(e) if isinstance(e, Nurbs) else -1))
+        for m in corner_parts(e) if isinstance(e, Nurbs) else (e,):
+            self._motions.append(Motion(m, self._rpm, self._add_nurbs(m) if isinstance(m, Nurbs) else -1))
 
     def _add_nurbs(self, e: Nurbs) -> int:
         idx = self._n_nurbs
@@ -172,7 +174,7 @@ class FeedPlanner:
         s_ev = self._s_end
         if self._motions:
             self._build(final=False)
-            s_ev = self._s_end + _own_length(self._motions[0], self._nurbs) - self._trim
+            s_ev = self._s_end + motion_length(self._motions[0], self._nurbs) - self._trim
         self._events.append((s_ev, e))
 
     def _flush(self) -> Iterator:
@@ -376,17 +378,6 @@ class FeedPlanner:
         self._pstart = np.zeros(0)
         self._cap, self._reason, self._corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
         self._x0 = 0.0
-
-
-def _own_length(m: tuple, nurbs: dict) -> float:
-    """Arc length of a pending motion (entity, rpm, nurbs index)."""
-    e = m[0]
-    if isinstance(e, Nurbs):
-        return nurbs[m[2]].table.length
-    if isinstance(e, Arc):
-        a, b, n = PLANE_AXES[e.plane]
-        return float(np.hypot(e.radius_mm * abs(e.sweep_rad), e.end[n] - e.start[n]))
-    return float(np.linalg.norm(np.subtract(e.end, e.start)))
 
 
 def _finishing_params(cfg: MachineConfig):

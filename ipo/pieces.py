@@ -116,6 +116,17 @@ class Motion(NamedTuple):
     nurbs_index: int  # index into the owner's NURBS list, -1 otherwise
 
 
+def motion_length(m: Motion, nurbs) -> float:
+    """Arc length of a pending motion (its NURBS's from the driver in `nurbs`)."""
+    e = m[0]
+    if isinstance(e, Nurbs):
+        return nurbs[m[2]].table.length
+    if isinstance(e, Arc):
+        a, b, n = PLANE_AXES[e.plane]
+        return float(np.hypot(e.radius_mm * abs(e.sweep_rad), e.end[n] - e.start[n]))
+    return float(np.linalg.norm(np.subtract(e.end, e.start)))
+
+
 def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
     a, b, n = PLANE_AXES[e.plane]
     ua, ub, un = np.eye(3)[a], np.eye(3)[b], np.eye(3)[n]

@@ -1,0 +1,156 @@
+"""Corners inside one NURBS: interior knots of multiplicity p (C0) where the tangent turns.
+
+The per-period positions (BLU 1e-9) are checked against the programmed geometry computed
+here independently (exact segments for the degree-1 polyline, scipy's BSpline for the
+cubic), by finite differences against the axis limits, and the corner speed against
+sqrt(A R) for the blend radius of the rule R (sec(theta/2) - 1) = P.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ipo.nurbs_split import corner_knots, corner_parts
+from ipr import parse_text
+from ipr.entities import EXACT_STOP, Message, Nurbs, PathControl
+from tests.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
+                                    blend_radius, bspline_points, corner_feed, distance_to_polyline)
+from ipo.feed import plan_periods
+from ipo.period import PeriodBatch
+
+G64P = PathControl(blend_tol_mm=P)
+G64P0 = PathControl(blend_tol_mm=0.0)
+MODES = {"G61": EXACT_STOP, "G64 P0": G64P0, "G64 P0.01": G64P}
+
+# degree 1 (G06.2 P2): a polyline with two 90 degree corners
+POLY_PTS = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [20, 10, 0.0]])
+POLY_KNOTS = np.array([0, 0, 1, 2, 3, 3.0])
+# a cubic with a triple interior knot: arrives at (10, 0) along +X, leaves at 45 degrees
+D45 = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0])
+CUBIC_PTS = np.array([[0, 0, 0], [3, 2, 0], [7, 0, 0], [10, 0, 0], [10, 0, 0] + 3 * D45, [10, 0, 0] + 6 * D45,
+                      [18, 9, 0.0]])
+CUBIC_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2.0])
+CURVES = {
+    "polyline": (1, POLY_KNOTS, POLY_PTS, [(POLY_PTS[1], np.pi / 2), (POLY_PTS[2], np.pi / 2)]),
+    "cubic": (3, CUBIC_KNOTS, CUBIC_PTS, [(CUBIC_PTS[3], np.pi / 4)]),
+}
+
+
+def curve(name: str, path: PathControl) -> Nurbs:
+    p, knots, pts, _ = CURVES[name]
+    return Nurbs(1, p, knots, np.ones(len(pts)), pts, F, path)
+
+
+def run(ents):
+    items = list(plan_periods(ents, CFG, start_mm=ents[0].start))
+    batches = [b for b in items if isinstance(b, PeriodBatch)]
+    return (np.concatenate([b.pos_mm for b in batches]), np.concatenate([b.feed_mm_s for b in batches]),
+            np.concatenate([b.line for b in batches]))
+
+
+def exact_path(name: str) -> np.ndarray:
+    """The programmed curve as a dense polyline: the polyline's own vertices (its segments
+    are exact), the cubic by scipy."""
+    if name == "polyline":
+        return POLY_PTS
+    return bspline_points(curve(name, G64P), 40001)
+
+
+def test_corner_knots_against_hand_computed_turns():
+    assert corner_knots(curve("polyline", G64P)).tolist() == [1.0, 2.0]
+    assert corner_knots(curve("cubic", G64P)).tolist() == [1.0]
+    parts = corner_parts(curve("cubic", G64P))
+    for q, knots in zip(parts, ([0, 0, 0, 0, 1, 1, 1, 1], [1, 1, 1, 1, 2, 2, 2, 2]), strict=True):
+        np.testing.assert_allclose(q.knots, knots, rtol=0, atol=1e-12)  # |C'| = 9 on both sides
+    np.testing.assert_array_equal(parts[0].points, CUBIC_PTS[:4])
+    np.testing.assert_array_equal(parts[1].points, CUBIC_PTS[3:])
+
+
+@pytest.mark.parametrize("name", CURVES)
+@pytest.mark.parametrize("mode", ["G61", "G64 P0"])
+def test_unblended_interior_corner_is_crossed_exactly_and_slowly(name, mode):
+    """G61 stops on the corner: a period ends on it (within BLU) and the mean feed of the
+    periods on either side is at most A T / 2 (braking to zero within a period). G64 P0
+    crosses it within one period at the corner cap A T / (2 |dt|) (0.35 mm/s at 90
+    degrees, 0.65 mm/s at 45), cutting it by at most the chord tolerance."""
+    e = curve(name, MODES[mode])
+    pos, feed, line = run([e])
+    for corner, _ in CURVES[name][3]:
+        d = np.linalg.norm(pos - corner, axis=1)
+        k = int(np.argmin(d))
+        assert d[k] <= (1e-9 if mode == "G61" else DELTA), d[k]
+        if mode == "G61":
+            assert max(feed[k], feed[k + 1]) <= 0.5 * A.min() * T, (feed[k], feed[k + 1])
+        else:
+            assert min(feed[k], feed[k + 1]) < 1.0
+    assert_within_limits(pos, e.start)
+    assert_forward_to_the_end(pos, e.start, e.end)
+    assert np.all(line == 1)
+
+
+@pytest.mark.parametrize("name", CURVES)
+def test_interior_corner_is_blended_within_p(name):
+    """G64 P0.01: within P + delta of the exact curve, the tolerance used at each corner,
+    within the axis limits, and through the corner at >= 0.8 sqrt(A R)."""
+    e = curve(name, G64P)
+    pos, feed, line = run([e])
+    dev = distance_to_polyline(pos, exact_path(name))
+    assert dev.max() <= P + DELTA, dev.max()
+    for corner, theta in CURVES[name][3]:
+        near = np.linalg.norm(pos - corner, axis=1) < 0.5
+        assert 0.8 * P * np.cos(theta / 2) <= dev[near].max() <= P + DELTA
+        v_blend = np.sqrt(A.min() * blend_radius(theta))
+        assert corner_feed(pos, feed, corner) >= 0.8 * v_blend, (corner_feed(pos, feed, corner), v_blend)
+    assert_within_limits(pos, e.start)
+    assert_forward_to_the_end(pos, e.start, e.end)
+    assert np.all(line == 1)
+
+
+def test_polyline_program_through_the_interpreter():
+    """G06.2 P2 text followed by a message and a G1: the corners are blended, the periods
+    carry the curve's line until it ends, and the message comes out once."""
+    text = "\n".join(["G21 G90 G17 G64 P0.01 F3000", "G06.2 P2 K0 X0 Y0 Z0",
+                      "K0 X10 Y0", "K1 X10 Y10", "K2 X20 Y10", "K3", "K3", "(MSG, done)", "G1 X30", "M2"])
+    ents = parse_text(text).entities
+    nurbs = [e for e in ents if isinstance(e, Nurbs)]
+    assert len(nurbs) == 1 and nurbs[0].line == 2
+    items = list(plan_periods(ents, CFG))
+    batches = [b for b in items if isinstance(b, PeriodBatch)]
+    pos = np.concatenate([b.pos_mm for b in batches])
+    line = np.concatenate([b.line for b in batches])
+    dev = distance_to_polyline(pos, np.vstack([POLY_PTS, [[30, 10, 0]]]))
+    assert dev.max() <= P + DELTA
+    assert set(np.unique(line).tolist()) == {2, 9}
+    on_curve = line == 2
+    assert np.linalg.norm(pos[on_curve][-1] - POLY_PTS[-1]) <= F * T  # the last period on the curve
+    assert sum(isinstance(i, Message) for i in items) == 1
+    assert_within_limits(pos, (0, 0, 0))
+    assert np.max(np.abs(pos[-1] - [30, 10, 0])) <= 1e-9
+
+
+@pytest.mark.parametrize("path", [EXACT_STOP, G64P0])
+def test_c0_knot_with_agreeing_tangents_is_crossed_at_full_feed(path):
+    """A triple knot of a cubic whose control points are collinear through it (straight in,
+    a bend out of it, the tangent continuous) and a degree-1 knot between collinear
+    segments: no corner, so no stop even under G61."""
+    cubic = Nurbs(1, 3, CUBIC_KNOTS, np.ones(7), np.array([[0, 0, 0], [4, 0, 0], [8, 0, 0], [12, 0, 0], [16, 0, 0],
+                                                           [20, 0.5, 0], [24, 1.5, 0.0]]), F, path)
+    poly = Nurbs(1, 1, np.array([0, 0, 1, 2, 2.0]), np.ones(3), np.array([[0, 0, 0], [5, 0, 0], [12, 0, 0.0]]), F,
+                 path)
+    for e, knot_point in ((cubic, np.array([12, 0, 0.0])), (poly, np.array([5, 0, 0.0]))):
+        assert len(corner_parts(e)) == 1
+        pos, feed, _ = run([e])
+        near = np.linalg.norm(pos - knot_point, axis=1) < 1.0
+        assert np.all(np.abs(feed[near] - F) < 1e-6), feed[near].min()
+        assert_within_limits(pos, e.start)
+        assert_forward_to_the_end(pos, e.start, e.end)
+
+
+def test_repeated_polyline_point_is_a_corner_like_any_other():
+    """A point repeated at a polyline corner (a zero-length segment) plans the same stream as
+    the polyline without it."""
+    pts = np.insert(POLY_PTS, 2, POLY_PTS[1], axis=0)
+    e = Nurbs(1, 1, np.array([0, 0, 1, 2, 3, 4, 4.0]), np.ones(5), pts, F, G64P)
+    pos, _, _ = run([e])
+    ref, _, _ = run([curve("polyline", G64P)])
+    assert pos.shape == ref.shape and np.abs(pos - ref).max() <= 1e-9
