@@ -8,7 +8,9 @@ and how many pieces stayed G01; then the control points needed to reach T with t
 rational fit, the same fit without weights, and geomdl's non-rational
 `fitting.approximate_curve`, on circular arcs, an ellipse and corpus runs (same run);
 then `vcnc compare` on finish_g01.nc against finish_nurbs.nc. "bound x" is the largest block
-ratio any conversion of the same runs could reach (each run one group of 4 control points).
+ratio any conversion of the same runs could reach (each run one group of 4 control points); for
+g1_lhchips4 the same bound is printed with runs broken only at sharper corners (up to never), to
+show what its arcs and rapids alone leave.
 g1_stellabee1.ngc (169,220 lines) is benchmarked on its first STELLA_LINES lines: a
 deterministic part, because the whole file takes too long to fit on this machine.
 """
@@ -72,6 +74,23 @@ def conversion_table(quick: bool) -> None:
                   f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:7.1f} "
                   f"{rep.blocks_before / rep.blocks_bound:7.2f}")
             assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
+        if name == "g1_lhchips4.ngc":
+            print(f"  {name} bound x if runs broke only at corners sharper than "
+                  + ", ".join(f"{deg} deg: {x:.2f}" for deg, x in _bound_by_corner(text)))
+
+
+def _bound_by_corner(text: str, degree: int = 3) -> list[tuple[int, float]]:
+    """The block ratio if every run became one group of degree + 1 control points and degree + 1
+    knot blocks (where that is shorter), for several corner angles; arcs and rapids still end runs."""
+    from machine.convert import count_blocks
+
+    entities = parse_text(text).entities
+    blocks = count_blocks(text)
+    out = []
+    for deg in (30, 60, 90, 180):
+        saved = sum(max(0, len(r) - 2 * (degree + 1)) for r in split_runs(entities, corner_deg=deg))
+        out.append((deg, blocks / (blocks - saved)))
+    return out
 
 
 def _geomdl_min_ctrl(q: np.ndarray, tol_mm: float, m_max: int) -> int | None:
