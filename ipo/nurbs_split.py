@@ -26,6 +26,12 @@ CORNER_MIN_RAD = 1e-4
 _SAME_POINT_MM = 1e-12  # control points closer than this are the same point
 
 
+def _c0_firsts(p: int, knots: np.ndarray) -> np.ndarray:
+    """Index of the first occurrence of each interior knot of multiplicity p (C0 there)."""
+    _, first, counts = np.unique(knots[p + 1:len(knots) - p - 1], return_index=True, return_counts=True)
+    return first[counts >= p] + p + 1
+
+
 def _direction(points: np.ndarray, i: int, step: int) -> np.ndarray | None:
     """Unit vector from points[i] to the first point after it in the direction step that
     differs from it, or None if there is none."""
@@ -44,17 +50,16 @@ def corner_knots(e: Nurbs) -> np.ndarray:
     p = int(e.degree)
     knots = np.asarray(e.knots, dtype=float)
     points = np.asarray(e.points, dtype=float)
-    inner, counts = np.unique(knots[p + 1:len(knots) - p - 1], return_counts=True)
     out = []
-    for u in inner[counts >= p]:
-        c = int(np.searchsorted(knots, u, side="left")) - 1  # C(u) = points[c]
+    for f in _c0_firsts(p, knots):
+        c = f - 1  # C(knots[f]) = points[c]
         back, ahead = _direction(points, c, -1), _direction(points, c, 1)
         if back is None or ahead is None:
             continue  # the rest of the curve on one side is this very point: no turn
         # a repeated point next to it (a polyline's zero-length segment) is cut off too
         repeated = min(np.linalg.norm(points[c] - points[c - 1]), np.linalg.norm(points[c + 1] - points[c]))
         if repeated <= _SAME_POINT_MM or np.arccos(np.clip(-np.dot(back, ahead), -1.0, 1.0)) > CORNER_MIN_RAD:
-            out.append(u)
+            out.append(knots[f])
     return np.array(out)
 
 
@@ -66,11 +71,11 @@ def even_speed(e: Nurbs) -> Nurbs:
     p = int(e.degree)
     knots = np.array(e.knots, dtype=float)
     pts, w = np.asarray(e.points, dtype=float), np.asarray(e.weights, dtype=float)
-    inner, counts = np.unique(knots[p + 1:len(knots) - p - 1], return_counts=True)
-    if not np.any(counts >= p):
+    firsts = _c0_firsts(p, knots)
+    if len(firsts) == 0:
         return e
-    for u in inner[counts >= p]:
-        c = int(np.searchsorted(knots, u, side="left")) - 1  # C(u) = points[c]
+    for f in firsts:  # left to right: each scaling moves the knots of the ones after it
+        u, c = knots[f], f - 1  # C(u) = points[c]
         # one-sided |C'(u)| of the two clamped halves (The NURBS Book eq. 4.9 at their ends)
         left = p * w[c - 1] / w[c] * np.linalg.norm(pts[c] - pts[c - 1]) / (u - knots[c])
         right = p * w[c + 1] / w[c] * np.linalg.norm(pts[c + 1] - pts[c]) / (knots[c + p + 1] - u)
@@ -83,7 +88,7 @@ def even_speed(e: Nurbs) -> Nurbs:
 def corner_parts(e: Nurbs) -> list[Nurbs]:
     """e as consecutive NURBS entities (same line, feed and path control) cut at its corner
     knots, without parts of no length, each with an even parametric speed (even_speed);
-    [e] itself when it has no C0 knot inside."""
+    one part when it has no corner inside."""
     e = even_speed(e)
     cuts = corner_knots(e)
     if len(cuts) == 0:

@@ -176,3 +176,35 @@ def test_stepper_tracking_stays_within_the_axis_limits(seed):
     pos, _, _ = run([e])
     assert_within_limits(pos, e.start)
     assert_forward_to_the_end(pos, e.start, e.end)
+
+
+def random_c0_curve(seed: int, path: PathControl) -> Nurbs:
+    """A random rational curve of degree 1..3 made of 2..4 Bezier pieces joined at knots of
+    multiplicity p: a corner at every joint (a random turn), a random feed."""
+    rng = np.random.default_rng(seed)
+    p = int(rng.choice([1, 2, 3]))
+    pieces = int(rng.integers(2, 5))
+    n = p * pieces + 1
+    pts = np.cumsum(rng.normal(scale=5.0, size=(n, 3)), axis=0)
+    pts[0] = 0.0
+    inner = np.repeat(np.sort(rng.uniform(0.0, 1.0, pieces - 1)), p)
+    knots = np.concatenate([[0.0] * (p + 1), inner, [1.0] * (p + 1)])
+    return Nurbs(1, p, knots, rng.uniform(0.5, 2.0, n), pts, float(rng.uniform(20.0, 100.0)), path)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 5, 14])  # degrees 3, 2, 3, 3, 1
+@pytest.mark.parametrize("mode", MODES)
+def test_random_curves_with_corners_inside_stay_within_the_limits(seed, mode):
+    """Every joint is a corner (some sharper than 90 degrees): the unsplit curve went up to
+    150 times over the acceleration limit there. Split, every mode keeps the axis limits
+    and ends on the end point, and the path (the polyline through the period points)
+    passes each corner within the mode's tolerance."""
+    e = random_c0_curve(seed, MODES[mode])
+    pos, _, _ = run([e])
+    assert_within_limits(pos, e.start)
+    assert np.max(np.abs(pos[-1] - e.end)) <= 1e-9
+    tol = {"G61": 1e-9, "G64 P0": DELTA, "G64 P0.01": P + DELTA}[mode]
+    firsts = np.unique(e.knots[e.degree + 1:-e.degree - 1], return_index=True)[1] + e.degree + 1
+    assert len(firsts) >= 1
+    corners = e.points[firsts - 1]  # a knot of multiplicity p: the curve passes the point before it
+    assert np.all(distance_to_polyline(corners, np.vstack([e.start, pos])) <= tol)
