@@ -3,20 +3,22 @@
 The per-period positions (BLU 1e-9) are checked against the programmed geometry computed
 here independently (exact segments for the degree-1 polyline, scipy's BSpline for the
 cubic), by finite differences against the axis limits, and the corner speed against
-sqrt(A R) for the blend radius of the rule R (sec(theta/2) - 1) = P.
+sqrt(A R) for the blend radius of the rule R (sec(theta/2) - 1) = P. The last tests check
+the NURBS driver's tracking of the planned arc length on smooth random curves (seeds that
+went over the acceleration limit before).
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from ipo.feed import plan_periods
 from ipo.nurbs_split import corner_knots, corner_parts
+from ipo.period import PeriodBatch
 from ipr import parse_text
 from ipr.entities import EXACT_STOP, Message, Nurbs, PathControl
 from tests.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
-                                    blend_radius, bspline_points, corner_feed, distance_to_polyline)
-from ipo.feed import plan_periods
-from ipo.period import PeriodBatch
+                                    blend_radius, bspline_points, corner_feed, distance_to_polyline, run_scurve)
 
 G64P = PathControl(blend_tol_mm=P)
 G64P0 = PathControl(blend_tol_mm=0.0)
@@ -108,7 +110,8 @@ def test_interior_corner_is_blended_within_p(name):
 
 def test_polyline_program_through_the_interpreter():
     """G06.2 P2 text followed by a message and a G1: the corners are blended, the periods
-    carry the curve's line until it ends, and the message comes out once."""
+    carry the curve's line until it ends, and the message comes out once, in the period
+    that reaches the curve's end (the last part of the split curve)."""
     text = "\n".join(["G21 G90 G17 G64 P0.01 F3000", "G06.2 P2 K0 X0 Y0 Z0",
                       "K0 X10 Y0", "K1 X10 Y10", "K2 X20 Y10", "K3", "K3", "(MSG, done)", "G1 X30", "M2"])
     ents = parse_text(text).entities
@@ -124,6 +127,9 @@ def test_polyline_program_through_the_interpreter():
     on_curve = line == 2
     assert np.linalg.norm(pos[on_curve][-1] - POLY_PTS[-1]) <= F * T  # the last period on the curve
     assert sum(isinstance(i, Message) for i in items) == 1
+    k = [i for i, item in enumerate(items) if isinstance(item, Message)][0]
+    emitted = sum(len(b) for b in items[:k] if isinstance(b, PeriodBatch))
+    assert np.linalg.norm(pos[emitted - 1] - POLY_PTS[-1]) <= F * T  # where the curve ends
     assert_within_limits(pos, (0, 0, 0))
     assert np.max(np.abs(pos[-1] - [30, 10, 0])) <= 1e-9
 
@@ -208,3 +214,10 @@ def test_random_curves_with_corners_inside_stay_within_the_limits(seed, mode):
     assert len(firsts) >= 1
     corners = e.points[firsts - 1]  # a knot of multiplicity p: the curve passes the point before it
     assert np.all(distance_to_polyline(corners, np.vstack([e.start, pos])) <= tol)
+
+
+@pytest.mark.parametrize("name", CURVES)
+@pytest.mark.parametrize("mode", MODES)
+def test_scurve_mode_keeps_jerk_at_interior_corners(name, mode):
+    """S-curve mode: within A and 1.01 J by finite differences, ending on the end point."""
+    run_scurve([curve(name, MODES[mode])])
