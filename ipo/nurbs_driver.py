@@ -28,6 +28,7 @@ RESYNC_PERIODS = 32
 # 1e-5 of a chord: at 0.1 mm a period (100 mm/s, 1 ms) 1 nm, whose change over a period
 # stays within the planner's headroom below the acceleration limit (feed.ACCEL_USE)
 CHORD_TOL_PCT = 1e-3
+_END_SNAP_MM = 1e-9
 
 
 class NurbsDriver:
@@ -86,8 +87,9 @@ class NurbsDriver:
         lag = self.s_planned - self.s_reached
         steps = np.maximum(chord * gain + lag * bump / bump.sum(), 0.0)
         steps[0] += lead
-        # a period that reaches the curve's end ends on it, even if the stepper lags
-        end = target >= length
+        # a period that reaches the curve's end ends on it, even if the stepper lags (the
+        # planner's arc lengths may fall short of the table's length by float rounding)
+        end = target >= length - _END_SNAP_MM
         steps[end] = np.maximum(steps[end], 2.0 * length + 1.0)
         st = self.stepper.advance(steps)
         self.gain_used = self.gain
