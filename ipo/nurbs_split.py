@@ -5,11 +5,16 @@ through control point P_{f-1} (f the knot's first index in the knot vector), and
 one-sided tangents point along P_{f-1} - P_{f-2} and P_f - P_{f-1} (the end tangents of the
 two clamped halves; where consecutive points coincide, along the first point further out
 that differs, the limit of the unit tangent). Where these turn by more than the planner's
-corner threshold, the curve is cut there (ipo.subcurve) into consecutive NURBS entities,
-so that the corner is handled like one between blocks: a stop under G61, a crossing at the
-corner cap under G64 P0, a blend within P under G64. A C0 knot whose tangents agree stays
-inside its part and is crossed at speed, its parametrisation evened out (even_speed). Parts whose control points all coincide (a
-repeated point of a polyline) have no length and are dropped.
+corner threshold, the curve is cut there (ipo.subcurve) into consecutive entities (NURBS,
+or Lines where a part of a degree-1 curve is one segment), so that the corner is handled
+like one between blocks: a stop under G61, a crossing at the corner cap under G64 P0, a
+blend within P under G64. A C0 knot whose tangents agree stays inside its part and is
+crossed at speed, its parametrisation evened out (even_speed). Parts whose control points
+all coincide (a repeated point of a polyline) have no length and are dropped.
+
+Left out: a cusp where the derivative vanishes (p coincident control points inside a curve
+of degree >= 2, or a repeated point next to a C0 knot) is not cut; the NURBS table rejects it
+with its "vanishing derivative" error, as before.
 """
 from __future__ import annotations
 
@@ -18,7 +23,7 @@ import dataclasses
 import numpy as np
 
 from ipo.subcurve import sub_curve
-from ipr.entities import Nurbs
+from ipr.entities import Line, Nurbs
 
 # a tangent turn at a C0 knot above this is a corner (pieces._CURVE_BLEND_MIN_RAD: gentler
 # corners next to NURBS are crossed as they are, so cutting there would change nothing)
@@ -85,14 +90,16 @@ def even_speed(e: Nurbs) -> Nurbs:
     return dataclasses.replace(e, knots=knots)
 
 
-def corner_parts(e: Nurbs) -> list[Nurbs]:
-    """e as consecutive NURBS entities (same line, feed and path control) cut at its corner
+def corner_parts(e: Nurbs) -> list[Nurbs | Line]:
+    """e as consecutive motion entities (same line, feed and path control) cut at its corner
     knots, without parts of no length, each with an even parametric speed (even_speed);
-    one part when it has no corner inside."""
+    one part when it has no corner inside. A part that is one straight segment (degree 1,
+    two control points) is that Line: the same path, on the planner's lean G1 path."""
     e = even_speed(e)
     cuts = corner_knots(e)
     if len(cuts) == 0:
         return [e]
     bounds = np.concatenate([[e.knots[0]], cuts, [e.knots[-1]]])
     parts = [sub_curve(e, float(a), float(b)) for a, b in zip(bounds[:-1], bounds[1:])]
-    return [q for q in parts if np.ptp(q.points, axis=0).max() > _SAME_POINT_MM]
+    return [Line(e.line, q.start, q.end, e.feed_mm_s, e.path) if len(q.points) == 2 else q
+            for q in parts if np.ptp(q.points, axis=0).max() > _SAME_POINT_MM]

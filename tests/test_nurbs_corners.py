@@ -16,7 +16,7 @@ from ipo.feed import plan_periods
 from ipo.nurbs_split import corner_knots, corner_parts
 from ipo.period import PeriodBatch
 from ipr import parse_text
-from ipr.entities import EXACT_STOP, Message, Nurbs, PathControl
+from ipr.entities import EXACT_STOP, Line, Message, Nurbs, PathControl
 from tests.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
                                     blend_radius, bspline_points, corner_feed, distance_to_polyline, run_scurve)
 
@@ -248,3 +248,21 @@ def test_arc_length_readback_against_quadrature():
     exact = np.cumsum([0.0] + [quad(speed, a, b, epsabs=1e-13, epsrel=1e-13, limit=200)[0]
                                for a, b in zip(u[:-1], u[1:])])
     assert np.abs(np.array([tab.s_of_u(x) for x in u]) - exact).max() <= 1e-6
+
+
+@pytest.mark.parametrize("path", [EXACT_STOP, G64P0, G64P])
+def test_polyline_nurbs_runs_as_the_same_g1_program(path):
+    """A degree-1 NURBS through 60 points with a turn at each (random knots and weights) is
+    the polyline the same G1 blocks program: the same per-period positions."""
+    rng = np.random.default_rng(3)
+    ang = np.linspace(0.0, 1.5 * np.pi, 60)
+    pts = np.c_[20 * np.cos(ang), 20 * np.sin(ang) + rng.normal(scale=0.2, size=60), 0.1 * ang]
+    knots = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5, 2.0, 59)), [0.0]])
+    knots[-1] = knots[-2]
+    e = Nurbs(1, 1, np.concatenate([[0.0], knots]), rng.uniform(0.5, 2.0, 60), pts, F, path)
+    lines = [Line(1, tuple(a), tuple(b), F, path) for a, b in zip(pts[:-1], pts[1:])]
+    pos, _, line = run([e])
+    ref, _, _ = run(lines)
+    # within one BLU: the parts' end points come back from homogeneous coordinates (x w / w)
+    assert pos.shape == ref.shape and np.abs(pos - ref).max() <= 1.001e-9
+    assert np.all(line == 1)
