@@ -13,7 +13,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-METHODS = ("recursive", "taylor1", "taylor2", "constant-du")
+# NURBS interpolators that can follow a feed profile (constant du cannot: it is for `vcnc interp` studies)
+METHODS = ("recursive", "taylor1", "taylor2")
 ACCEL_MODES = ("trapezoid", "scurve")
 SERVO_MODELS = ("none", "lag", "pd")
 AXIS_NAMES = ("x", "y", "z")

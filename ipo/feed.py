@@ -28,7 +28,7 @@ from collections.abc import Iterable, Iterator
 import numpy as np
 
 from ipo import lookahead as la
-from ipo.config import MachineConfig
+from ipo.config import METHODS, MachineConfig
 from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, lowest_smooth_x,
                         min_blend_radius_mm, sample_caps, spread_min)
 from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
@@ -60,6 +60,8 @@ class FeedPlanner:
             raise ValueError(f"batch_periods must be >= 1, got {batch_periods}")
         self.cfg = config
         self.method = method or config.method
+        if self.method not in METHODS:
+            raise ValueError(f"method {self.method!r} cannot follow a feed profile; choose one of {', '.join(METHODS)}")
         self.set_feed_override(feed_override)
         self.batch_periods = int(batch_periods)
         self.T = config.period_s

@@ -6,7 +6,10 @@ NURBS stepper follows ipo/period.py: one compiled call fills the arrays of a who
 of periods. Every curve evaluation is counted in `Steps.evals`, the output point and the
 start-up included (a Taylor evaluation includes the two derivatives); `startup_evals` is
 the part spent by the start-up (the first moving period, or the first ones should they be
-too short to measure du/ds from).
+too short to measure du/ds from). With `chord_tol_pct`, every period's chord is solved to
+that tolerance: by the recursive update's tolerance mode, or from a Taylor update's du as
+the first guess (the feed stage needs it: a chord error that changes from period to period
+is an acceleration error). Constant du has no chord to hold.
 """
 from __future__ import annotations
 
@@ -83,6 +86,14 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
             fallback = eq9(d, st[_G1], st[_S1]) if st[_S1] > 0.0 else d * (u_max - u_min) / polygon_mm
             res = taylor_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, der,
                               1 if method == _TAYLOR1 else 2, fallback)
+            if chord_tol >= 0.0:
+                # a chord tolerance asks every period's chord within it (the feed stage: a chord that
+                # is off by a changing amount is an acceleration error); eq. 7's du is the first guess
+                extra += res[5]
+                res = recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, res[0],
+                                     n1, chord_tol, max_evals, True, st[_G1], st[_S1])
+                if not res[6]:
+                    poly_derivs2(breaks, inv_h, coef, res[7], u + res[0], der)
         g, x, y, z, s, evals, at_end, span = res
         at_end = at_end or u + g >= u_max  # u + du rounded onto u_max
         evals += extra

@@ -7,6 +7,7 @@ import sys
 
 import click
 
+from ipo.config import METHODS
 from machine.commands import load_machine
 
 
@@ -90,7 +91,7 @@ def _run_fast(controller, program, show_progress: bool):
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--machine", "machine_file", type=click.Path(dir_okay=False), help="Machine TOML (default: built in).")
 @click.option("--period-ms", type=float, help="Interpolation period in ms (overrides the machine file).")
-@click.option("--method", type=click.Choice(["recursive", "taylor1", "taylor2", "constant-du"]),
+@click.option("--method", type=click.Choice(list(METHODS)),
               help="NURBS interpolator (default: the machine file's).")
 @click.option("--feed-override", type=float, default=100.0, show_default=True, help="Feed override in percent.")
 @click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write the trace (.npz or .csv).")
