@@ -12,8 +12,8 @@ chord to CHORD_TOL_PCT (its fixed-iteration mode was 0.6 % short in sharp turns,
 shortfall changing by 0.02 um a period), and the driver's corrections never step: the gain
 moves linearly to its new value over a chunk, and the lag is taken up by a sin^2 bump that
 starts and ends at zero (the earlier even spread changed the speed at every resync, up to
-19 % over the acceleration limit on random curves). The chord tolerance applies to the
-recursive method (the default); the Taylor and constant-du updates take the step they predict.
+19 % over the acceleration limit on random curves). A Taylor update's du is the first guess
+of that solve (ipo.steppers); constant du cannot follow a feed and is refused by the planner.
 """
 from __future__ import annotations
 
