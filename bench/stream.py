@@ -10,8 +10,9 @@ of NURBS programs turned into G1 segments by vcnc's IPO.
 2. For each NURBS program: G1 segments sent against the NURBS blocks in the source,
    and the largest distance from the exact curve (dense samples, 200 per segment)
    to the polyline sent, at the machine's chord tolerance as merge tolerance and at
-   half of it. The vertices are the IPO's period points, quantised to the BLU, so
-   the deviation is the merge tolerance plus up to half a BLU per axis. Then what
+   half of it. The vertices are the IPO's period points on the curve (not rounded to
+   the BLU), written with 4 decimals and merged within the tolerance less that
+   rounding, so the deviation stays within the merge tolerance. Then what
    the stream asks of a 115200-baud grbl with 15 planner blocks (machine.grbl.budget).
 
 Usage: python bench/stream.py

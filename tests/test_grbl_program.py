@@ -11,7 +11,7 @@ from ipo.nurbs import curve_points
 from ipo.period import PeriodBatch
 from ipr.entities import Arc, Coolant, Line, Nurbs, ProgramEnd, Rapid, Spindle, ToolChange
 from machine.grbl import protocol as P
-from machine.grbl.program import StreamLine, merge_polyline, resume_text, stream_lines
+from machine.grbl.program import StreamLine, StreamProgramError, merge_polyline, resume_text, stream_lines
 from machine.grbl.resume import ResumeError, find_resume
 
 CFG = default_config()
@@ -185,3 +185,23 @@ def test_stream_demand_by_hand():
     assert len(d.warnings) == 2 and "35000 bytes/s" in d.warnings[0] and "3286 mm/min" in d.warnings[1]
     slow = stream_demand(lines, baud=1_000_000, planner_blocks=15, accel_mm_s2=1e6)
     assert slow.warnings == []
+
+
+def test_nurbs_sent_through_the_ipo_stays_within_the_merge_tolerance_of_the_exact_circle():
+    from pathlib import Path
+
+    from ipr import parse_file
+
+    # programs/circle_nurbs.nc: a rational quadratic full circle of radius 10 about the origin.
+    # The vertices are the IPO's period points on the curve (not BLU-rounded) written with 4
+    # decimals, merged within the tolerance less that rounding: the polyline sent stays within it.
+    prog = parse_file(Path(__file__).resolve().parents[1] / "programs" / "circle_nurbs.nc")
+    nurbs = next(e for e in prog.entities if isinstance(e, Nurbs))
+    lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True, merge_tol_mm=0.001))
+    ends = [l.end_mm for l in lines if l.motion and l.source_line == nurbs.line]
+    poly = np.array([nurbs.start] + ends)
+    assert len(poly) > 50 and np.allclose(poly[-1], nurbs.end)
+    seg = poly[:-1, None] + np.linspace(0, 1, 101)[None, :, None] * np.diff(poly, axis=0)[:, None]
+    assert np.abs(np.hypot(seg[..., 0], seg[..., 1]) - 10.0).max() <= 0.001
+    with pytest.raises(StreamProgramError, match="decimals"):
+        list(stream_lines(prog.entities, CFG, merge_tol_mm=5e-5))

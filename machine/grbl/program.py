@@ -17,6 +17,7 @@ Numbering is deterministic, so a resumed stream regenerates the same lines.
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass
@@ -32,6 +33,9 @@ from machine.grbl.protocol import MAX_LINE_CHARS
 PREAMBLE = "G21G90G91.1G94"  # mm, absolute, incremental IJK (grbl's only arc mode), units/min
 PLANE_CODE = {"XY": "G17", "ZX": "G18", "YZ": "G19"}
 OFFSET_LETTERS = "IJK"
+DIGITS = 4  # decimals of every number sent (mm)
+WRITTEN_ROUNDING_MM = 0.5 * 10.0**-DIGITS * math.sqrt(3.0)  # how far rounding a vertex can move it
+VERTEX_BLU_MM = 1e-7  # the IPO's resolution for the vertices sent (far below DIGITS)
 
 
 class StreamProgramError(ValueError):
@@ -53,7 +57,7 @@ class StreamLine:
 
 
 def num(v: float) -> str:
-    s = f"{v:.4f}"
+    s = f"{v:.{DIGITS}f}"
     return "0.0000" if s == "-0.0000" else s
 
 
@@ -146,7 +150,10 @@ class _PeriodCursor:
 def _plan_with_ipo(config) -> Callable[[Iterable, tuple], Iterator]:
     from ipo.feed import plan_periods  # the feed stage; imported only when a program has a NURBS
 
-    return lambda ents, start_mm: plan_periods(ents, config, start_mm=start_mm)
+    # grbl rounds to its own steps: the vertices sent are the IPO's period points on the curve,
+    # not rounded to the drive's BLU first (that added up to half a BLU per axis to the deviation)
+    exact = dataclasses.replace(config, blu_mm=VERTEX_BLU_MM)
+    return lambda ents, start_mm: plan_periods(ents, exact, start_mm=start_mm)
 
 
 class _Builder:
@@ -208,7 +215,7 @@ class _Builder:
         if np.linalg.norm(pts[-1] - np.asarray(e.end)) > 1e-9:  # the last period may have been carried on
             pts = np.vstack((pts, np.asarray(e.end, float)[None, :]))
             feed_mm_s = np.r_[feed_mm_s, feed_mm_s[-1]]
-        keep = merge_polyline(pts, self.tol)
+        keep = merge_polyline(pts, self.tol - WRITTEN_ROUNDING_MM)
         out = []
         for i0, i1 in zip(keep[:-1], keep[1:]):
             if not np.any(pts[i1] != pts[i0]):
@@ -229,7 +236,11 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), merge_
     memory stays bounded. It starts at the first NURBS, from standstill there, unless
     `ipo_from_start` (for a program known to hold a NURBS): then it plans from the
     program's start and the first NURBS is entered at the speed the IPO carries into it."""
-    b = _Builder(start_mm, config.chord_tol_mm if merge_tol_mm is None else merge_tol_mm)
+    tol = config.chord_tol_mm if merge_tol_mm is None else merge_tol_mm
+    if not tol > WRITTEN_ROUNDING_MM:
+        raise StreamProgramError(f"merge tolerance {tol} mm must exceed what writing the vertices with "
+                                 f"{DIGITS} decimals can move them ({WRITTEN_ROUNDING_MM:.2g} mm)")
+    b = _Builder(start_mm, tol)
     ents, for_ipo = itertools.tee(entities)
     cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos))) if ipo_from_start else None
     yield b.emit(0, PREAMBLE + "G17")
