@@ -31,8 +31,8 @@ from ipo import lookahead as la
 from ipo.config import METHODS, MachineConfig
 from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, lowest_smooth_x,
                         min_blend_radius_mm, sample_caps, spread_min)
-from ipo.period import LIMIT_PROGRAMMED, PeriodBatch
-from ipo.period_output import PeriodOutput, period_reasons
+from ipo.period import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
+from ipo.period_output import PeriodOutput, centripetal_binds, period_reasons
 from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
 from ipo.roughness import cusp_height_mm
 from ipo.nurbs_driver import NurbsDriver
@@ -309,7 +309,8 @@ class FeedPlanner:
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
-        seg_reason = period_reasons(xs, src, cap, reason)
+        cen = centripetal_binds(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], self.a_max, ascale)
+        seg_reason = period_reasons(xs, src, cap, reason, cen, LIMIT_CURVATURE)
         tc = la.sample_times(s, xs)
         c_ref = len(s) - 1
         t_next = self._phase

@@ -25,20 +25,40 @@ from ipo.reference_word import quantise
 from ipo.scurve import MovingAverage
 
 
-def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.ndarray) -> np.ndarray:
+def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.ndarray,
+                   centripetal: np.ndarray, curvature_code: int) -> np.ndarray:
     """Limit reason of each refined interval (xs = v^2 at the refined points, src = the
     sample each refined point lies after).
 
     A period is limited by a cap where both ends of its interval run at their caps, or one
     does and the speed stays level; else it is accelerating or braking (away from a
-    corner's cap, into a stop)."""
+    corner's cap, into a stop), unless `centripetal` (one flag per sample interval,
+    centripetal_binds) says an axis at its limit there owes most of it to the curvature:
+    below a curvature peak's cap, where one path acceleration cannot meet the axis limits
+    at both ends of an interval at the cap, that is `curvature_code`."""
     k0, k1 = src[:-1], src[:-1] + 1
     with np.errstate(divide="ignore", invalid="ignore"):
         r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
         r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
     level = np.abs(xs[1:] - xs[:-1]) <= 0.01 * np.maximum(xs[:-1], xs[1:])
+    moving = np.where(centripetal[np.minimum(k0, len(centripetal) - 1)], curvature_code, LIMIT_ACCEL)
     return np.where(r0 & (r1 | level), reason[k0],
-                    np.where(r1 & level, reason[k1], LIMIT_ACCEL)).astype(np.int8)
+                    np.where(r1 & level, reason[k1], moving)).astype(np.int8)
+
+
+def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarray, a_max: np.ndarray,
+                      ascale: np.ndarray) -> np.ndarray:
+    """Per sample interval: at one of its ends some axis runs within 1 % of its limit with
+    the constant s'' of the interval, and the centripetal share kv_i x is most of it."""
+    ds = np.diff(s)
+    sdd = np.divide(np.diff(x), 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
+    out = np.zeros(len(ds), bool)
+    for end, xe in ((slice(None, -1), x[:-1]), (slice(1, None), x[1:])):
+        cen = kv[end] * xe[:, None]
+        acc = t[end] * sdd[:, None] + cen
+        at_limit = np.abs(acc) >= 0.99 * ascale[:, None] * a_max[None, :]
+        out |= np.any(at_limit & (np.abs(cen) >= 0.5 * np.abs(acc)), axis=1)
+    return out & (ds > 0)
 
 
 class PeriodOutput:
