@@ -138,3 +138,26 @@ def swap_uv(surf: RationalSurface) -> RationalSurface:
     """The same surface with the parameter directions exchanged (the normal flips)."""
     return RationalSurface(surf.degree_v, surf.degree_u, surf.knots_v, surf.knots_u, surf.weights.T.copy(),
                            surf.points.transpose(1, 0, 2).copy())
+
+
+def c0_knots(knots: np.ndarray, degree: int) -> np.ndarray:
+    """Interior knot values repeated `degree` times or more: across them the surface is only C0."""
+    inner = np.asarray(knots, dtype=float)[degree + 1:-degree - 1]
+    values, counts = np.unique(inner, return_counts=True)
+    return values[counts >= degree]
+
+
+def split_u(surf: RationalSurface, u_c: float) -> tuple[RationalSurface, RationalSurface]:
+    """The patches u <= u_c and u >= u_c of a surface whose knot u_c is repeated degree_u times or more
+    (no knot insertion needed: each side keeps its own control points, NURBS Book §5.3)."""
+    p, k = surf.degree_u, surf.knots_u
+    at = np.flatnonzero(k == u_c)
+    if len(at) < p or at[0] <= p or at[-1] >= len(k) - p - 1:
+        raise ValueError(f"u = {u_c} is not an interior knot of multiplicity >= {p}")
+    first, mult = int(at[0]), len(at)
+    j0 = first + mult - p - 1  # the right side's first control point (the shared one when mult == p)
+    left = RationalSurface(p, surf.degree_v, np.concatenate([k[:first], np.full(p + 1, u_c)]), surf.knots_v,
+                           surf.weights[:first].copy(), surf.points[:first].copy())
+    right = RationalSurface(p, surf.degree_v, np.concatenate([np.full(p + 1, u_c), k[first + mult:]]),
+                            surf.knots_v, surf.weights[j0:].copy(), surf.points[j0:].copy())
+    return left, right

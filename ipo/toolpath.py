@@ -9,6 +9,14 @@ within the tolerance, ipo.fit_tolerance) and checked against the surface itself:
 every point of the fitted curve must lie at r from the surface within the
 tolerance. Passes alternate direction; between passes the tool retracts to a safe
 height, moves over the next start and plunges.
+
+Creases: the surface is cut at its C0 knots across the passes (multiplicity >=
+degree in u) and every side is offset on its own. Where the normals on the two
+sides differ (a convex crease), the ball centre rolls about the crease point on a
+circle of radius r from one normal to the other; that arc is written exactly, as a
+rational quadratic group, between the fitted offsets of the two sides. A concave
+crease (the surface turns towards the tool) is refused: a ball there touches both
+sides at once and its centre is where the two offsets meet, not a rolling arc.
 """
 from __future__ import annotations
 
@@ -18,7 +26,8 @@ import numpy as np
 
 from ipo.fit_tolerance import FitSettings, fewest_ctrl
 from ipo.rational_fit import RationalFit, evaluate
-from ipo.surface import RationalSurface, closest_points, surface_derivs, swap_uv, unit_normals
+from ipo.surface import (RationalSurface, c0_knots, closest_points, split_u, surface_derivs, surface_points,
+                         swap_uv, unit_normals)
 
 PLUNGE_FRACTION = 0.3  # plunge feed as a fraction of the cutting feed
 CLEARANCE_MM = 5.0  # safe height above the highest tool-centre point
@@ -55,13 +64,15 @@ class ToolpathSettings:
 
 @dataclass(frozen=True, slots=True)
 class Pass:
-    """One pass at v = const: its samples (surface parameter u, tool centre) and fitted pieces."""
+    """One pass at v = const: its samples (surface parameter u, tool centre) and its groups: fitted
+    offsets and, at each convex crease it crosses, the exact rolling arc (degree 2)."""
 
     v: float
     u: np.ndarray
     centres: np.ndarray
     pieces: list[RationalFit]
     deviation_mm: float  # largest | distance(curve point, surface) - r | over the fitted pieces
+    rolling_arcs: int = 0
 
 
 def pass_values(surf: RationalSurface, pick_mm: float) -> np.ndarray:
@@ -149,19 +160,135 @@ def _fit_span(surf, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFit],
     return left + right, max(dev_l, dev_r)
 
 
+def surface_patches(surf: RationalSurface) -> list[RationalSurface]:
+    """The surface cut at its C0 knots in u, in order of u; sides that do not meet raise."""
+    patches = [surf]
+    for u_c in c0_knots(surf.knots_u, surf.degree_u):
+        patches += split_u(patches.pop(), float(u_c))
+    vv = np.linspace(*surf.v_range, ACROSS_SAMPLES)
+    size = float(np.ptp(surf.points.reshape(-1, 3), axis=0).max())
+    for a, b in zip(patches, patches[1:]):
+        u_c = a.u_range[1]
+        gap = np.linalg.norm(surface_points(a, np.full(len(vv), u_c), vv)
+                             - surface_points(b, np.full(len(vv), u_c), vv), axis=1).max()
+        if gap > 1e-9 * size:
+            raise ValueError(f"the surface is not continuous across u = {u_c:.6g}: its sides are up to "
+                             f"{gap:.3g} mm apart there")
+    return patches
+
+
+@dataclass(frozen=True, slots=True)
+class Crease:
+    """Where a pass crosses a convex C0 line: the crease point and the unit normals before and after it."""
+
+    u: float
+    corner: np.ndarray
+    n_before: np.ndarray
+    n_after: np.ndarray
+
+
+def crease_at(left: RationalSurface, right: RationalSurface, v: float, r: float, sign: float,
+              tol_mm: float) -> Crease | None:
+    """The crease a pass at v crosses between two patches, or None where the normals agree so closely
+    that joining the offsets straight costs < SAG_FRACTION * tol (r (1 - cos angle)); concave raises."""
+    u_c = left.u_range[1]
+    s_l, t_l, _ = surface_derivs(left, [u_c], [v])
+    _, t_r, _ = surface_derivs(right, [u_c], [v])
+    n_l = sign * unit_normals(left, [u_c], [v])[1][0]
+    n_r = sign * unit_normals(right, [u_c], [v])[1][0]
+    cos_a = float(np.clip(n_l @ n_r, -1.0, 1.0))
+    if r * (1.0 - cos_a) <= SAG_FRACTION * tol_mm:
+        return None
+    ahead = t_l[0] / np.linalg.norm(t_l[0]) + t_r[0] / np.linalg.norm(t_r[0])
+    if (n_r - n_l) @ ahead < 0:  # the normal turns back: the surface folds towards the tool
+        x, y, z = s_l[0]
+        raise ValueError(f"concave crease (C0 joint) near ({x:.3f}, {y:.3f}, {z:.3f}): the surface turns by "
+                         f"{np.degrees(np.arccos(cos_a)):.2f} deg towards the tool there, so a ball touching one "
+                         "side gouges the other; not handled (machine the sides separately)")
+    return Crease(u_c, s_l[0], n_l, n_r)
+
+
+def rolling_arc(corner: np.ndarray, n_from: np.ndarray, n_to: np.ndarray, r: float) -> RationalFit:
+    """The ball centre rolling about a crease point from one unit normal to the other: the circle of
+    radius r as rational quadratic segments of at most 90 deg (middle weight cos of the half angle)."""
+    cos_a = float(np.clip(n_from @ n_to, -1.0, 1.0))
+    angle = float(np.arccos(cos_a))
+    e2 = n_to - cos_a * n_from
+    e2 = e2 / np.linalg.norm(e2)
+    segs = int(np.ceil(angle / (np.pi / 2)))
+    half = angle / (2 * segs)
+    a = np.linspace(0.0, angle, 2 * segs + 1)
+    middle = np.arange(2 * segs + 1) % 2 == 1
+    radius = np.where(middle, r / np.cos(half), r)
+    points = corner + radius[:, None] * (np.cos(a)[:, None] * n_from + np.sin(a)[:, None] * e2)
+    weights = np.where(middle, np.cos(half), 1.0)
+    knots = np.concatenate([np.zeros(3), np.repeat(np.arange(1.0, segs), 2), np.full(3, float(segs))])
+    return RationalFit(2, knots, weights, points, np.array([0.0, float(segs)]), np.empty(0), True)
+
+
+def refuse_concave_along(work: RationalSurface, sign: float, s: ToolpathSettings) -> None:
+    """C0 lines along the passes (C0 knots in v) need no arc: a pass beside a convex one stays clear of
+    the other side. Beside a concave one it would gouge the other side, so that raises."""
+    turned = swap_uv(work)  # its normal is the opposite one
+    uu = np.linspace(*work.u_range, ACROSS_SAMPLES)
+    patches = surface_patches(turned)
+    for a, b in zip(patches, patches[1:]):
+        for u in uu:
+            crease_at(a, b, float(u), s.ball_mm, -sign, s.tol_mm)
+
+
+def _plan_pass(work: RationalSurface, patches: list[RationalSurface], v: float, sign: float,
+               s: ToolpathSettings, reverse: bool) -> Pass:
+    """One pass: the offsets of runs of patches joined smoothly, fitted, and rolling arcs between them."""
+    r = s.ball_mm
+    creases = [crease_at(a, b, v, r, sign, s.tol_mm) for a, b in zip(patches, patches[1:])]
+    samples = [(patch, *_samples(patch, v, r, sign, s.tol_mm)) for patch in patches]
+    runs = [[samples[0]]]
+    for sample, crease in zip(samples[1:], creases):
+        if crease is None:
+            runs[-1].append(sample)
+        else:
+            runs.append([sample])
+    creases = [c for c in creases if c is not None]
+    segments = []
+    for k, run in enumerate(runs):
+        surf = run[0][0] if len(run) == 1 else work  # the check finds foot points on one smooth patch
+        u = np.concatenate([run[0][1]] + [x[1][1:] for x in run[1:]])
+        c = np.concatenate([run[0][2]] + [x[2][1:] for x in run[1:]])
+        segments.append((surf, u, c))
+        if k < len(creases):
+            segments.append(creases[k])
+    if reverse:
+        segments = [seg if isinstance(seg, Crease) else (seg[0], seg[1][::-1].copy(), seg[2][::-1].copy())
+                    for seg in segments[::-1]]
+    pieces, devs, us, cs = [], [], [], []
+    for seg in segments:
+        if isinstance(seg, Crease):
+            n_from, n_to = (seg.n_after, seg.n_before) if reverse else (seg.n_before, seg.n_after)
+            arc = rolling_arc(seg.corner, n_from, n_to, r)
+            c = evaluate(arc, np.linspace(0.0, arc.knots[-1], 8 * len(arc.points)))
+            pieces.append(arc)
+            devs.append(float(np.max(np.abs(np.linalg.norm(c - seg.corner, axis=1) - r))))
+            u = np.full(len(c), seg.u)
+        else:
+            surf, u, c = seg
+            fitted, dev = _fit_span(surf, v, r, u, c, s)
+            pieces += fitted
+            devs.append(dev)
+        us.append(u)
+        cs.append(c)
+    return Pass(v, np.concatenate(us), np.concatenate(cs), pieces, max(devs), len(creases))
+
+
 def plan_passes(surf: RationalSurface, s: ToolpathSettings) -> list[Pass]:
     """Every pass, fitted and checked; passes alternate direction (zig-zag)."""
     s.check()
     work = surf if s.along == "u" else swap_uv(surf)
     sign = normal_sign(work)
-    passes = []
-    for k, v in enumerate(pass_values(work, s.pick_mm)):
-        u, c = _samples(work, float(v), s.ball_mm, sign, s.tol_mm)
-        if k % 2:
-            u, c = u[::-1].copy(), c[::-1].copy()
-        pieces, dev = _fit_span(work, float(v), s.ball_mm, u, c, s)
-        passes.append(Pass(float(v), u, c, pieces, dev))
-    return passes
+    patches = surface_patches(work)
+    refuse_concave_along(work, sign, s)
+    return [_plan_pass(work, patches, float(v), sign, s, bool(k % 2))
+            for k, v in enumerate(pass_values(work, s.pick_mm))]
 
 
 def _fmt(value: float, digits: int) -> str:

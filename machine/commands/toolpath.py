@@ -3,7 +3,8 @@
 Reads the rational surface (entity 128) of an IGES file written by `vcnc surface`,
 offsets it by the ball radius along the normal, and writes passes at the pick feed
 as Fanuc G06.2 groups (tool-centre coordinates), ready for `vcnc run` with 002's
-roughness limiter.
+roughness limiter. Across a convex crease (a C0 knot) the ball rolls about the crease on
+an exact arc; a concave crease is refused.
 """
 from __future__ import annotations
 
@@ -46,6 +47,9 @@ def command(surface, out, ball_mm, pick_mm, feed_mm_min, spindle_rpm, tol_mm, al
     ctrl = sum(len(f.points) for p in passes for f in p.pieces)
     click.echo(f"{surface} -> {out}")
     click.echo(f"passes {len(passes)} along {along}, G06.2 groups {groups}, control points {ctrl}")
+    arcs = sum(p.rolling_arcs for p in passes)
+    if arcs:
+        click.echo(f"rolling arcs {arcs} (the ball centre turning about a convex crease, written exactly)")
     click.echo(f"max tool-centre error {max(p.deviation_mm for p in passes) * 1e3:.3f} um "
                f"(distance to the surface minus r = {ball_mm} mm; tolerance {tol_mm * 1e3:.3f} um)")
     click.echo(f"blocks {text.count(chr(10))}, planning {elapsed:.2f} s")
