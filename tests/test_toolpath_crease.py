@@ -176,3 +176,19 @@ def test_a_surface_that_jumps_at_a_knot_is_refused():
     gap = RationalSurface(3, 1, knots, LINEAR_KNOTS, np.ones((8, 2)), points)
     with pytest.raises(ValueError, match="not continuous"):
         plan_passes(gap, ToolpathSettings(R, PICK, TOL))
+
+
+def test_three_ridges_of_a_degree_one_prism(tmp_path):
+    """Degree 1 in u: every interior knot is a C0 line, here three convex ridges, all rolled about."""
+    xz = np.array([[-10.0, 0.0], [-4.0, 4.0], [4.0, 4.0], [10.0, 0.0], [14.0, -5.0]])
+    points = np.array([[[x, y, z] for y in (0.0, 8.0)] for x, z in xz])
+    prism = RationalSurface(1, 1, np.array([0, 0, 1, 2, 3, 4, 4.0]), LINEAR_KNOTS, np.ones((5, 2)), points)
+    settings = ToolpathSettings(R, PICK, TOL)
+    passes = plan_passes(prism, settings)
+    path = tmp_path / "prism.nc"
+    path.write_text(program_text(passes, settings, "prism"))
+    pts, nurbs = written_centres(path)
+    assert sum(e.degree == 2 for e in nurbs) == 3 * len(passes)
+    d, _ = cKDTree(surface_points(prism, *grid(prism, 1601, 201))).query(pts)  # spacing 0.025 / 0.04 mm
+    print(f"\nprism, {len(passes)} passes: distance - r {(d - R).min() * 1e3:.3f}..{(d - R).max() * 1e3:.3f} um")
+    assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
