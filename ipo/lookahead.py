@@ -5,7 +5,11 @@ constant path acceleration s'' = dx/ds / 2 in each interval). A backward scan fr
 window's end velocity bounds every sample by what the machine can still brake from, a
 forward scan from the start velocity by what it can reach; both respect the per-axis
 acceleration limits A_i through |t_i s'' + kv_i x| <= A_i (tangential plus centripetal
-share of each axis), so the profile never exceeds the caps and is reachable.
+share of each axis), so the profile never exceeds the caps and is reachable. The limits
+hold at both ends of every interval with its one s'': where the s'' allowed at one sample
+misses the one allowed at the next (near a curvature cap whose binding axes change along
+the path), the profile stays below the cap until one s'' fits both (a 2-variable linear
+programme per interval in the backward pass).
 """
 from __future__ import annotations
 
