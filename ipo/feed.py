@@ -251,9 +251,8 @@ class FeedPlanner:
         xf = feed**2
         hard = self._cap
         if self._fir is not None:
-            span, acc = self._fir.m * self.T, float(self.a_max.max())
             hard = low_caps_to_stops(hard, self._smp.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
-            hard = spread_min(self._smp.s, hard, span, acc)
+            hard = spread_min(self._smp.s, hard, self._fir.m * self.T, self.T, float(np.linalg.norm(self.a_max)))
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
 

@@ -21,6 +21,10 @@ ROUGHNESS_USE = 0.9999
 CORNER_SHARE = 0.5
 # A tangent step below this share of an axis's per-period velocity change is no corner.
 NEGLIGIBLE_STEP = 0.005
+# An acceleration step da between two periods shows in the third finite difference of the
+# per-period positions (the jerk) weighted by the quadratic B-spline of the three periods
+# around it: at most 3/4 da / T, when the step falls mid-period.
+STEP_JERK_SHARE = 0.75
 
 
 def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
@@ -75,16 +79,23 @@ def _window_max(s, kappa, reach):
 
 
 @njit(cache=True)
-def spread_min(s, cap, span_s, accel):
-    """Each cap also holds as far either side as the machine gets in span_s seconds from
-    that speed at acceleration accel (S-curve mode: the moving-average filter mixes the
-    speeds of span_s seconds around each point)."""
+def spread_min(s, cap, span_s, period_s, accel):
+    """Each cap also holds wherever the moving-average filter (S-curve mode, m periods of
+    span_s = m T) mixes planned speeds into the output at that point.
+
+    The output position p is the mean of the last m planned positions and its speed the
+    mean planned speed over those periods plus one: a window of W <= span + 2 T in which
+    the planned trajectory passes p, with speeds below v_c + accel |tau - tau_p| (v_c the
+    cap's speed, accel the largest path acceleration, |s''| <= |a| <= ||A||). p being the
+    mean, either end of the window lies (1/W) int tau v(tau) dtau <= v_c W / 2 + accel W^2 / 3
+    from it: the planned speeds mixed in at p are those within that reach."""
     n = s.shape[0]
     out = cap.copy()
     for k in range(n):
         if not (0.0 < cap[k] < 1e300):
             continue  # no cap, or a stop: the filter is run out at stops
-        reach = np.sqrt(cap[k]) * span_s + 0.5 * accel * span_s * span_s
+        w = span_s + 2.0 * period_s
+        reach = np.sqrt(cap[k]) * w / 2.0 + accel * w * w / 3.0
         j = k - 1
         while j >= 0 and s[k] - s[j] <= reach:
             out[j] = min(out[j], cap[k])
@@ -134,6 +145,20 @@ def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np
         w = np.sqrt(np.minimum(x_cap, 1e12)) * np.linalg.norm(kv, axis=1) * np.minimum(a_path, 1e12)
         rate = 2.0 * np.maximum(w[:-1], w[1:])
         return np.minimum(1.0, j_mm_s3 / rate)
+
+
+def curvature_rate_cap(s: np.ndarray, kv: np.ndarray, piece: np.ndarray, j_max: np.ndarray) -> np.ndarray:
+    """S-curve mode: along a piece the centripetal acceleration kv_i v^2 changes at the rate
+    v^3 dkv_i/ds (its turning with the tangent and the change of the curvature itself),
+    kept within J_i; dkv/ds from the samples, the larger of the intervals either side."""
+    ds = np.diff(s)
+    inner = (ds > 0) & (piece[1:] == piece[:-1])
+    rate = np.zeros((len(s), kv.shape[1]))
+    d = np.abs(np.diff(kv, axis=0)) / np.where(inner, ds, 1.0)[:, None] * inner[:, None]
+    rate[:-1] = d
+    rate[1:] = np.maximum(rate[1:], d)
+    with np.errstate(divide="ignore"):
+        return np.min((j_max[None, :] / rate) ** (2.0 / 3.0), axis=1)
 
 
 def chord_cap(s: np.ndarray, kv: np.ndarray, delta_mm: float, period_s: float,
@@ -215,7 +240,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     limiter for feed moves while the spindle turns; None switches it off. With j_max
     (S-curve mode) a jump of the curvature vector where pieces meet, which steps each
     axis acceleration within a period, is kept within the jerk limit,
-    v^2 |dkv_i| <= J_i T, the turning of the centripetal acceleration along a curve too,
+    v^2 |dkv_i| <= J_i T / STEP_JERK_SHARE, the turning of the centripetal acceleration along a curve too,
     v^3 kappa^2 <= J, and the machine stops at an unblended corner (crossing it would
     step the velocity itself).
     """
@@ -244,7 +269,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     if j_max is not None:
         with np.errstate(divide="ignore"):
             dk = np.abs(smp.kv[edge + 1] - smp.kv[edge])
-            x_jerk = np.min(j_max[None, :] * period_s / dk, axis=1)
+            x_jerk = np.min(j_max[None, :] * period_s / (STEP_JERK_SHARE * dk), axis=1)
         x_jerk = np.where(sharp, 0.0, x_jerk)
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
         x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
@@ -252,6 +277,7 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         kappa = np.linalg.norm(smp.kv, axis=1)
         with np.errstate(divide="ignore"):
             x_corner = np.minimum(x_corner, (j_max.min() / kappa**2) ** (2.0 / 3.0))
+        x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_max))
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
     x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
     caps.append((x_chord, LIMIT_CHORD))
