@@ -161,3 +161,29 @@ def split_u(surf: RationalSurface, u_c: float) -> tuple[RationalSurface, Rationa
     right = RationalSurface(p, surf.degree_v, np.concatenate([np.full(p + 1, u_c), k[first + mult:]]),
                             surf.knots_v, surf.weights[j0:].copy(), surf.points[j0:].copy())
     return left, right
+
+
+def split_at_c0(surf: RationalSurface) -> list[RationalSurface]:
+    """The surface cut at every C0 knot in u, in order of u."""
+    patches = [surf]
+    for u_c in c0_knots(surf.knots_u, surf.degree_u):
+        patches += split_u(patches.pop(), float(u_c))
+    return patches
+
+
+def nearest_distance(patches: list[RationalSurface], q: np.ndarray, u0, v0) -> np.ndarray:
+    """Distance of points q (K, 3) to the union of patches: closest_points on each patch from (u0, v0)
+    clamped into it, skipping a patch for points already nearer than its control hull's bounding box
+    (the patch lies inside that box: positive weights)."""
+    best = np.full(len(q), np.inf)
+    u0 = np.broadcast_to(np.asarray(u0, dtype=float), (len(q),))
+    v0 = np.broadcast_to(np.asarray(v0, dtype=float), (len(q),))
+    for patch in patches:
+        pts = patch.points.reshape(-1, 3)
+        box = np.linalg.norm(np.maximum(np.maximum(pts.min(axis=0) - q, q - pts.max(axis=0)), 0.0), axis=1)
+        near = box < best
+        if near.any():
+            d = closest_points(patch, q[near], np.clip(u0[near], *patch.u_range),
+                               np.clip(v0[near], *patch.v_range))[2]
+            best[near] = np.minimum(best[near], d)
+    return best

@@ -16,7 +16,10 @@ sides differ (a convex crease), the ball centre rolls about the crease point on 
 circle of radius r from one normal to the other; that arc is written exactly, as a
 rational quadratic group, between the fitted offsets of the two sides. A concave
 crease (the surface turns towards the tool) is refused: a ball there touches both
-sides at once and its centre is where the two offsets meet, not a rolling arc.
+sides at once and its centre is where the two offsets meet, not a rolling arc. Only a
+slight concave kink (a C0 patch merge of smooth data), where a ball on one side cuts at
+most CONCAVE_FRACTION of the tolerance into the other, is passed over, with the fits
+held to the rest of the tolerance; C0 lines along the passes are checked the same way.
 """
 from __future__ import annotations
 
@@ -26,13 +29,14 @@ import numpy as np
 
 from ipo.fit_tolerance import FitSettings, fewest_ctrl
 from ipo.rational_fit import RationalFit, evaluate
-from ipo.surface import (RationalSurface, c0_knots, closest_points, split_u, surface_derivs, surface_points,
-                         swap_uv, unit_normals)
+from ipo.surface import (RationalSurface, nearest_distance, split_at_c0, surface_derivs, surface_points, swap_uv,
+                         unit_normals)
 
 PLUNGE_FRACTION = 0.3  # plunge feed as a fraction of the cutting feed
 CLEARANCE_MM = 5.0  # safe height above the highest tool-centre point
 SAG_FRACTION = 0.1  # of the tolerance: chord sag allowed between a pass's samples
 FIT_FRACTION = 0.8  # of the tolerance: what the fit may use (the rest covers sampling and rounding)
+CONCAVE_FRACTION = 0.5  # of the tolerance: how deep a pass may cut into the far side of a concave kink
 MAX_CTRL = 48  # a pass needing more control points is cut in two
 FIRST_CTRL = 12
 ACROSS_SAMPLES, ALONG_SAMPLES = 64, 1024
@@ -71,7 +75,7 @@ class Pass:
     u: np.ndarray
     centres: np.ndarray
     pieces: list[RationalFit]
-    deviation_mm: float  # largest | distance(curve point, surface) - r | over the fitted pieces
+    deviation_mm: float  # bound of | distance(curve point, surface) - r |: checked fit + what joins cut
     rolling_arcs: int = 0
 
 
@@ -131,16 +135,17 @@ def _samples(surf: RationalSurface, v: float, r: float, sign: float, tol_mm: flo
     return u, c
 
 
-def offset_deviation(surf: RationalSurface, fit: RationalFit, u_data: np.ndarray, v: float, r: float) -> float:
-    """Largest | distance to the surface - r | over points of the fitted curve, 4 per data interval."""
+def offset_deviation(patches: list[RationalSurface], fit: RationalFit, u_data: np.ndarray, v: float,
+                     r: float) -> float:
+    """Largest | distance to the surface - r | over points of the fitted curve, 4 per data interval;
+    the surface is given as its smooth patches (c0_grid), so a pass is checked against both sides of
+    every C0 line near it."""
     t = np.linspace(fit.knots[0], fit.knots[-1], 4 * len(u_data))
-    pts = evaluate(fit, t)
-    u0 = np.interp(t, fit.params, u_data)
-    _, _, dist = closest_points(surf, pts, u0, np.full(len(t), v))
+    dist = nearest_distance(patches, evaluate(fit, t), np.interp(t, fit.params, u_data), v)
     return float(np.max(np.abs(dist - r)))
 
 
-def _fit_span(surf, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFit], float]:
+def _fit_span(patches, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFit], float]:
     settings = FitSettings(tol_mm=FIT_FRACTION * s.tol_mm, degree=s.degree)
     fit = None
     for m_max in (FIRST_CTRL, MAX_CTRL):  # fewest_ctrl tries m_max first: a small one first is cheaper
@@ -149,22 +154,20 @@ def _fit_span(surf, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFit],
             fit = found[0]
             break
     if fit is not None:
-        dev = offset_deviation(surf, fit, u, v, r)
+        dev = offset_deviation(patches, fit, u, v, r)
         if dev <= s.tol_mm:
             return [fit], dev
     if len(c) < 4 * (s.degree + 2):
         raise ValueError(f"a pass at v = {v:.6g} cannot be fitted within {s.tol_mm} mm")
     mid = len(c) // 2
-    left, dev_l = _fit_span(surf, v, r, u[:mid + 1], c[:mid + 1], s)
-    right, dev_r = _fit_span(surf, v, r, u[mid:], c[mid:], s)
+    left, dev_l = _fit_span(patches, v, r, u[:mid + 1], c[:mid + 1], s)
+    right, dev_r = _fit_span(patches, v, r, u[mid:], c[mid:], s)
     return left + right, max(dev_l, dev_r)
 
 
 def surface_patches(surf: RationalSurface) -> list[RationalSurface]:
     """The surface cut at its C0 knots in u, in order of u; sides that do not meet raise."""
-    patches = [surf]
-    for u_c in c0_knots(surf.knots_u, surf.degree_u):
-        patches += split_u(patches.pop(), float(u_c))
+    patches = split_at_c0(surf)
     vv = np.linspace(*surf.v_range, ACROSS_SAMPLES)
     size = float(np.ptp(surf.points.reshape(-1, 3), axis=0).max())
     for a, b in zip(patches, patches[1:]):
@@ -187,25 +190,53 @@ class Crease:
     n_after: np.ndarray
 
 
-def crease_at(left: RationalSurface, right: RationalSurface, v: float, r: float, sign: float,
-              tol_mm: float) -> Crease | None:
-    """The crease a pass at v crosses between two patches, or None where the normals agree so closely
-    that joining the offsets straight costs < SAG_FRACTION * tol (r (1 - cos angle)); concave raises."""
+@dataclass(frozen=True, slots=True)
+class Join:
+    """A joint a pass crosses with its two offsets joined straight; at a concave kink the centre of the
+    ball touching both sides' tangent planes, which replaces the offsets' ends."""
+
+    both_sides: np.ndarray | None
+
+
+def _joint(left: RationalSurface, right: RationalSurface, v: float, sign: float):
+    """The joint point at v, the unit normals either side, and whether the surface turns away from the
+    tool there (convex)."""
     u_c = left.u_range[1]
     s_l, t_l, _ = surface_derivs(left, [u_c], [v])
     _, t_r, _ = surface_derivs(right, [u_c], [v])
     n_l = sign * unit_normals(left, [u_c], [v])[1][0]
     n_r = sign * unit_normals(right, [u_c], [v])[1][0]
-    cos_a = float(np.clip(n_l @ n_r, -1.0, 1.0))
-    if r * (1.0 - cos_a) <= SAG_FRACTION * tol_mm:
-        return None
     ahead = t_l[0] / np.linalg.norm(t_l[0]) + t_r[0] / np.linalg.norm(t_r[0])
-    if (n_r - n_l) @ ahead < 0:  # the normal turns back: the surface folds towards the tool
-        x, y, z = s_l[0]
-        raise ValueError(f"concave crease (C0 joint) near ({x:.3f}, {y:.3f}, {z:.3f}): the surface turns by "
-                         f"{np.degrees(np.arccos(cos_a)):.2f} deg towards the tool there, so a ball touching one "
-                         "side gouges the other; not handled (machine the sides separately)")
-    return Crease(u_c, s_l[0], n_l, n_r)
+    return s_l[0], n_l, n_r, bool((n_r - n_l) @ ahead >= 0)  # a concave joint turns the normal back
+
+
+def _join_cost(r: float, n_l: np.ndarray, n_r: np.ndarray) -> float:
+    """How deep a ball centred on one side's offset next to the joint may cut into the other side:
+    r (1 - cos angle), its distance r cos(angle) from the other side's tangent plane."""
+    return r * (1.0 - float(np.clip(n_l @ n_r, -1.0, 1.0)))
+
+
+def _concave_error(point: np.ndarray, n_l: np.ndarray, n_r: np.ndarray, cost: float, tol_mm: float):
+    x, y, z = point
+    angle = np.degrees(np.arccos(np.clip(n_l @ n_r, -1.0, 1.0)))
+    return ValueError(f"concave crease (C0 joint) near ({x:.3f}, {y:.3f}, {z:.3f}): the surface turns by "
+                      f"{angle:.2f} deg towards the tool there, so a ball touching one side cuts up to "
+                      f"{cost * 1e3:.2f} um into the other, over {CONCAVE_FRACTION * tol_mm * 1e3:.2f} um "
+                      f"({CONCAVE_FRACTION:g} of the tolerance); not handled (machine the sides separately)")
+
+
+def crease_at(left: RationalSurface, right: RationalSurface, v: float, r: float, sign: float,
+              tol_mm: float) -> Crease | Join:
+    """The crease a pass at v crosses between two patches; or, where the offsets of the two sides can be
+    joined straight (a convex kink costing <= SAG_FRACTION * tol, a concave one <= CONCAVE_FRACTION *
+    tol), that join. A sharper concave joint raises."""
+    point, n_l, n_r, convex = _joint(left, right, v, sign)
+    cost = _join_cost(r, n_l, n_r)
+    if convex:
+        return Crease(left.u_range[1], point, n_l, n_r) if cost > SAG_FRACTION * tol_mm else Join(None)
+    if cost > CONCAVE_FRACTION * tol_mm:
+        raise _concave_error(point, n_l, n_r, cost, tol_mm)
+    return Join(point + r * (n_l + n_r) / (1.0 + n_l @ n_r))  # on the bisector at r / cos(angle / 2)
 
 
 def rolling_arc(corner: np.ndarray, n_from: np.ndarray, n_to: np.ndarray, r: float) -> RationalFit:
@@ -226,40 +257,47 @@ def rolling_arc(corner: np.ndarray, n_from: np.ndarray, n_to: np.ndarray, r: flo
     return RationalFit(2, knots, weights, points, np.array([0.0, float(segs)]), np.empty(0), True)
 
 
-def refuse_concave_along(work: RationalSurface, sign: float, s: ToolpathSettings) -> None:
-    """C0 lines along the passes (C0 knots in v) need no arc: a pass beside a convex one stays clear of
-    the other side. Beside a concave one it would gouge the other side, so that raises."""
-    turned = swap_uv(work)  # its normal is the opposite one
-    uu = np.linspace(*work.u_range, ACROSS_SAMPLES)
-    patches = surface_patches(turned)
-    for a, b in zip(patches, patches[1:]):
-        for u in uu:
-            crease_at(a, b, float(u), s.ball_mm, -sign, s.tol_mm)
+def _refuse_gouge(grid: list[RationalSurface], u: np.ndarray, v: float, c: np.ndarray, s: ToolpathSettings):
+    """The exact tool centres of a pass against every smooth patch: a ball on one side of a concave C0
+    line (along the pass, or a kink joined straight across it) may reach into the other side."""
+    d = nearest_distance(grid, c, u, v)
+    k = int(np.argmin(d))
+    if d[k] < s.ball_mm - CONCAVE_FRACTION * s.tol_mm:
+        x, y, z = c[k]
+        raise ValueError(f"concave crease (C0 joint): the ball centred at ({x:.3f}, {y:.3f}, {z:.3f}) cuts "
+                         f"{(s.ball_mm - d[k]) * 1e3:.2f} um into the surface beyond the joint, over "
+                         f"{CONCAVE_FRACTION * s.tol_mm * 1e3:.2f} um ({CONCAVE_FRACTION:g} of the tolerance); "
+                         "not handled (machine the sides separately)")
 
 
-def _plan_pass(work: RationalSurface, patches: list[RationalSurface], v: float, sign: float,
-               s: ToolpathSettings, reverse: bool) -> Pass:
-    """One pass: the offsets of runs of patches joined smoothly, fitted, and rolling arcs between them."""
+def _plan_pass(work: RationalSurface, patches: list[RationalSurface], grid: list[RationalSurface], v: float,
+               sign: float, s: ToolpathSettings, reverse: bool) -> Pass:
+    """One pass: the offsets of runs of patches joined straight, each fitted, and rolling arcs between
+    the runs; every fit is checked against all smooth patches (grid)."""
     r = s.ball_mm
-    creases = [crease_at(a, b, v, r, sign, s.tol_mm) for a, b in zip(patches, patches[1:])]
-    samples = [(patch, *_samples(patch, v, r, sign, s.tol_mm)) for patch in patches]
+    joints = [crease_at(a, b, v, r, sign, s.tol_mm) for a, b in zip(patches, patches[1:])]
+    samples = [_samples(patch, v, r, sign, s.tol_mm) for patch in patches]
     runs = [[samples[0]]]
-    for sample, crease in zip(samples[1:], creases):
-        if crease is None:
-            runs[-1].append(sample)
-        else:
+    for sample, joint in zip(samples[1:], joints):
+        if isinstance(joint, Crease):
             runs.append([sample])
-    creases = [c for c in creases if c is not None]
+            continue
+        if joint.both_sides is not None:  # the offsets overlap: both ends give way to that one centre
+            u, c = runs[-1][-1]
+            runs[-1][-1] = (u, np.vstack([c[:-1], joint.both_sides]))
+        runs[-1].append(sample)  # its first sample is dropped below
+    creases = [c for c in joints if isinstance(c, Crease)]
     segments = []
     for k, run in enumerate(runs):
-        surf = run[0][0] if len(run) == 1 else work  # the check finds foot points on one smooth patch
-        u = np.concatenate([run[0][1]] + [x[1][1:] for x in run[1:]])
-        c = np.concatenate([run[0][2]] + [x[2][1:] for x in run[1:]])
-        segments.append((surf, u, c))
+        u = np.concatenate([run[0][0]] + [x[0][1:] for x in run[1:]])
+        c = np.concatenate([run[0][1]] + [x[1][1:] for x in run[1:]])
+        if len(grid) > 1:
+            _refuse_gouge(grid, u, v, c, s)
+        segments.append((u, c))
         if k < len(creases):
             segments.append(creases[k])
     if reverse:
-        segments = [seg if isinstance(seg, Crease) else (seg[0], seg[1][::-1].copy(), seg[2][::-1].copy())
+        segments = [seg if isinstance(seg, Crease) else (seg[0][::-1].copy(), seg[1][::-1].copy())
                     for seg in segments[::-1]]
     pieces, devs, us, cs = [], [], [], []
     for seg in segments:
@@ -271,8 +309,8 @@ def _plan_pass(work: RationalSurface, patches: list[RationalSurface], v: float, 
             devs.append(float(np.max(np.abs(np.linalg.norm(c - seg.corner, axis=1) - r))))
             u = np.full(len(c), seg.u)
         else:
-            surf, u, c = seg
-            fitted, dev = _fit_span(surf, v, r, u, c, s)
+            u, c = seg
+            fitted, dev = _fit_span(grid, v, r, u, c, s)
             pieces += fitted
             devs.append(dev)
         us.append(u)
@@ -286,8 +324,8 @@ def plan_passes(surf: RationalSurface, s: ToolpathSettings) -> list[Pass]:
     work = surf if s.along == "u" else swap_uv(surf)
     sign = normal_sign(work)
     patches = surface_patches(work)
-    refuse_concave_along(work, sign, s)
-    return [_plan_pass(work, patches, float(v), sign, s, bool(k % 2))
+    grid = [swap_uv(q) for p in patches for q in surface_patches(swap_uv(p))]  # smooth: cut in v as well
+    return [_plan_pass(work, patches, grid, float(v), sign, s, bool(k % 2))
             for k, v in enumerate(pass_values(work, s.pick_mm))]
 
 

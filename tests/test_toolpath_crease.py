@@ -154,9 +154,11 @@ def test_offsets_joined_across_the_ridge_gouge():
 def test_concave_crease_is_refused_across_and_along_the_passes():
     roof, _, _ = roof_planes()
     valley = RationalSurface(3, 1, roof.knots_u, roof.knots_v, roof.weights, roof.points * [1.0, 1.0, -1.0])
-    for along in ("u", "v"):
-        with pytest.raises(ValueError, match="concave crease .* 30.00 deg"):
-            plan_passes(valley, ToolpathSettings(R, PICK, TOL, along=along))
+    with pytest.raises(ValueError, match="concave crease .* turns by 30.00 deg"):  # across the passes
+        plan_passes(valley, ToolpathSettings(R, PICK, TOL))
+    # along the passes: the pass nearest the valley floor, on one side, reaches into the other side
+    with pytest.raises(ValueError, match=r"concave crease .* cuts \d+\.\d+ um into the surface"):
+        plan_passes(valley, ToolpathSettings(R, PICK, TOL, along="v"))
 
 
 def test_a_full_multiplicity_knot_without_a_kink_is_no_crease():
