@@ -194,3 +194,35 @@ def test_three_ridges_of_a_degree_one_prism(tmp_path):
     d, _ = cKDTree(surface_points(prism, *grid(prism, 1601, 201))).query(pts)  # spacing 0.025 / 0.04 mm
     print(f"\nprism, {len(passes)} passes: distance - r {(d - R).min() * 1e3:.3f}..{(d - R).max() * 1e3:.3f} um")
     assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
+
+
+def test_noisy_patches_merged_c0_plan_along_their_joints():
+    """`vcnc surface --patch-sections 5` merges C0: the joints run along passes along u and bend by up to
+    1.5 deg, some concave. Each pass is checked against the patches on both sides of the joints."""
+    from ipo.section_fit import fit_sections
+    from ipo.skinning import skin_patches
+    from surface_cases import bump
+
+    surf = skin_patches(fit_sections(bump(0.005).sections, tol_mm=0.02).fits, 5, "C0").surface
+    assert len(c0_knots(surf.knots_v, surf.degree_v)) == 2
+    passes = plan_passes(surf, ToolpathSettings(R, PICK, TOL))
+    pts = np.concatenate([curve_points(f.degree, f.knots, f.weights, f.points, np.linspace(0, f.knots[-1], 400))
+                          for p in passes for f in p.pieces])
+    d, _ = cKDTree(surface_points(surf, *grid(surf, 600, 600))).query(pts)  # spacing 0.034 mm: +0.2 um
+    print(f"\nC0-merged bump: distance - r {(d - R).min() * 1e3:.3f}..{(d - R).max() * 1e3:.3f} um")
+    assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
+
+
+def test_slight_concave_kink_is_joined_through_the_ball_touching_both_sides(tmp_path):
+    """A 1.2 deg valley: a ball on one side would cut r (1 - cos 1.2 deg) = 0.66 um into the other, within
+    half the tolerance; the offsets' ends give way to the centre touching both planes."""
+    valley, _, _ = roof_planes(alpha_deg=-0.6)
+    settings = ToolpathSettings(R, PICK, TOL)
+    passes = plan_passes(valley, settings)
+    assert sum(p.rolling_arcs for p in passes) == 0
+    path = tmp_path / "valley.nc"
+    path.write_text(program_text(passes, settings, "valley"))
+    pts, _ = written_centres(path)
+    d, _ = cKDTree(surface_points(valley, *grid(valley, 801, 401))).query(pts)
+    print(f"\n1.2 deg valley: distance - r {(d - R).min() * 1e3:.3f}..{(d - R).max() * 1e3:.3f} um")
+    assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
