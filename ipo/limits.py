@@ -84,25 +84,30 @@ def spread_min(s, cap, span_s, period_s, accel):
     span_s = m T) mixes planned speeds into the output at that point.
 
     The output position p is the mean of the last m planned positions and its speed the
-    mean planned speed over those periods plus one: a window of W <= span + 2 T in which
-    the planned trajectory passes p, with speeds below v_c + accel |tau - tau_p| (v_c the
-    cap's speed, accel the largest path acceleration, |s''| <= |a| <= ||A||). p being the
-    mean, either end of the window lies (1/W) int tau v(tau) dtau <= v_c W / 2 + accel W^2 / 3
-    from it: the planned speeds mixed in at p are those within that reach."""
+    mean planned speed over those periods plus one: a window of W <= span + 2 T in which the
+    planned trajectory passes p. Either end of the window lies (1/W) int tau v(tau) dtau
+    from p (the mean, tau counted from the far end). With the speed held to v_c within the
+    reach R >= v_c W / 2, leaving it takes W / 2 at least, and from there the speed grows
+    by accel (|s''| <= |a| <= ||A||) at most: R = v_c W / 2 + 5 accel W^2 / 48. v^2 being
+    linear between samples, the samples are capped up to the first one beyond R."""
     n = s.shape[0]
     out = cap.copy()
     for k in range(n):
         if not (0.0 < cap[k] < 1e300):
             continue  # no cap, or a stop: the filter is run out at stops
         w = span_s + 2.0 * period_s
-        reach = np.sqrt(cap[k]) * w / 2.0 + accel * w * w / 3.0
+        reach = np.sqrt(cap[k]) * w / 2.0 + 5.0 * accel * w * w / 48.0
         j = k - 1
-        while j >= 0 and s[k] - s[j] <= reach:
+        while j >= 0:
             out[j] = min(out[j], cap[k])
+            if s[k] - s[j] > reach:
+                break
             j -= 1
         j = k + 1
-        while j < n and s[j] - s[k] <= reach:
+        while j < n:
             out[j] = min(out[j], cap[k])
+            if s[j] - s[k] > reach:
+                break
             j += 1
     return out
 

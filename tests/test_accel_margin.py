@@ -15,9 +15,10 @@ import pytest
 
 from ipo import lookahead as la
 from ipo.feed import ACCEL_USE, plan_periods
-from ipo.limits import curvature_cap
+from ipo.limits import STEP_JERK_SHARE, curvature_cap, spread_min
 from ipo.period import PeriodBatch
 from ipo.sampling import nurbs_table
+from ipo.scurve import MovingAverage
 from tests.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
 from tests.test_nurbs_corners import random_cubic
 
@@ -102,3 +103,79 @@ def test_profile_meets_the_limits_at_both_ends_of_every_interval():
     for k in np.nonzero(d > 0)[0]:
         assert _rows_feasible(tab.t[k:k + 2], tab.kv[k:k + 2], a_max, d[k], x[k], x[k + 1]), k
     assert x[1:-1].min() > 0  # it moves: the check is not met by standing still
+
+
+# S-curve mode -------------------------------------------------------------------------
+J = np.array([ax.max_jerk_mm_s3 for ax in CFG.axes])
+V = np.array([ax.max_velocity_mm_s for ax in CFG.axes])
+
+
+@pytest.mark.parametrize("seed", [18, 29, 47, 93])
+def test_scurve_random_cubic_stays_within_the_jerk(seed):
+    """Seeds that went 1.6-2.2 J over by finite differences before the curvature's own rate
+    of change was capped (v^3 |dkv_i/ds| <= J_i): the curvature changing along a smooth
+    curve changes the centripetal acceleration even where it does not turn."""
+    e = random_cubic(seed)
+    pos = periods(e, SCURVE)
+    v, a = finite_differences(pos, e.start)
+    j = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / CFG.period_s
+    assert np.all(np.abs(v) <= V + 1e-6)
+    assert np.all(np.abs(a) <= A + 1e-3)
+    assert np.all(np.abs(j) <= J * (1 + 1e-6)), (np.abs(j) / J).max()
+    assert_forward_to_the_end(pos, e.start, e.end)
+
+
+def test_acceleration_step_shows_as_three_quarters_in_the_jerk():
+    """limits.STEP_JERK_SHARE: p(t) = da/2 (t - tau)_+^2 sampled every T; its third finite
+    difference peaks at 3/4 da / T when the step falls mid-period, less elsewhere."""
+    T, da = 1e-3, 100.0
+    peaks = []
+    for phase in np.linspace(0.0, 1.0, 41):
+        t = np.arange(-5, 6) * T
+        p = 0.5 * da * np.maximum(t - phase * T, 0.0) ** 2
+        peaks.append(np.abs(np.diff(p, 3)).max() / T**3)
+    assert max(peaks) == pytest.approx(STEP_JERK_SHARE * da / T, rel=1e-9)
+    assert min(peaks) == pytest.approx(0.5 * da / T, rel=1e-9)
+
+
+def _filtered_speed_at(s_cap, v_cap, reach, m, accel, v_top=100.0, T=1e-3):
+    """Largest output speed of periods touching s_cap, when the planned profile is the
+    fastest one (accel) held to v_cap within +- reach of s_cap, through an m-period moving
+    average; brute force in time steps of T / 50."""
+    dt = T / 50
+    s, v, out = 0.0, 0.0, [0.0]
+    t_next, k = T, 0
+    while s < s_cap + reach + 60.0:
+        d = max(abs(s - s_cap) - reach, 0.0) if s < s_cap + reach else 0.0
+        limit = np.sqrt(v_cap**2 + 2 * accel * d) if s < s_cap - reach else v_cap if s <= s_cap + reach else v_top
+        limit = min(limit, v_top)
+        v = min(v + accel * dt, limit)
+        s += v * dt
+        k += 1
+        if k % 50 == 0:
+            out.append(s)
+    planned = np.array(out)
+    fir = MovingAverage(m)
+    s_f = np.cumsum(fir.filter(np.diff(planned), run_out=False))
+    speed = np.diff(s_f, prepend=0.0) / T
+    touch = (np.concatenate([[0.0], s_f[:-1]]) <= s_cap + 1e-12) & (s_f >= s_cap - 1e-12)
+    return speed[touch].max()
+
+
+@pytest.mark.parametrize("v_cap", [5.0, 20.0, 60.0])
+def test_spread_reach_covers_what_the_filter_mixes_in(v_cap):
+    """limits.spread_min's reach: a cap held over it, the fastest profile around it (braking
+    into it from 100 mm/s at 866 mm/s^2, leaving it as fast) and a 20-period moving
+    average: the output crosses the capped point at no more than the cap; with half the
+    reach it goes over at 20 and 60 mm/s (the bound is near tight there)."""
+    T, m, accel = 1e-3, 20, 866.0
+    s = np.linspace(0.0, 20.0, 200001)
+    cap = np.full(len(s), 1e300)
+    k = len(s) // 2
+    cap[k] = v_cap**2
+    spread = spread_min(s, cap, m * T, T, accel)
+    held = s[spread < 1e300]
+    reach = float(min(s[k] - held[0], held[-1] - s[k]))
+    assert _filtered_speed_at(10.0, v_cap, reach, m, accel) <= v_cap * (1 + 1e-9)
+    if v_cap >= 20.0:
+        assert _filtered_speed_at(10.0, v_cap, reach / 2, m, accel) > v_cap * 1.005
