@@ -18,8 +18,9 @@ rational quadratic group, between the fitted offsets of the two sides. A concave
 crease (the surface turns towards the tool) is refused: a ball there touches both
 sides at once and its centre is where the two offsets meet, not a rolling arc. Only a
 slight concave kink (a C0 patch merge of smooth data), where a ball on one side cuts at
-most CONCAVE_FRACTION of the tolerance into the other, is passed over, with the fits
-held to the rest of the tolerance; C0 lines along the passes are checked the same way.
+most CONCAVE_FRACTION of the tolerance into the other, is passed over through the
+centre of the ball touching both sides. Every fit is checked against all the smooth
+patches, so a C0 line along the passes is held to the tolerance too.
 """
 from __future__ import annotations
 
@@ -270,8 +271,8 @@ def _refuse_gouge(grid: list[RationalSurface], u: np.ndarray, v: float, c: np.nd
                          "not handled (machine the sides separately)")
 
 
-def _plan_pass(work: RationalSurface, patches: list[RationalSurface], grid: list[RationalSurface], v: float,
-               sign: float, s: ToolpathSettings, reverse: bool) -> Pass:
+def _plan_pass(patches: list[RationalSurface], grid: list[RationalSurface], v: float, sign: float,
+               s: ToolpathSettings, reverse: bool) -> Pass:
     """One pass: the offsets of runs of patches joined straight, each fitted, and rolling arcs between
     the runs; every fit is checked against all smooth patches (grid)."""
     r = s.ball_mm
@@ -325,7 +326,7 @@ def plan_passes(surf: RationalSurface, s: ToolpathSettings) -> list[Pass]:
     sign = normal_sign(work)
     patches = surface_patches(work)
     grid = [swap_uv(q) for p in patches for q in surface_patches(swap_uv(p))]  # smooth: cut in v as well
-    return [_plan_pass(work, patches, grid, float(v), sign, s, bool(k % 2))
+    return [_plan_pass(patches, grid, float(v), sign, s, bool(k % 2))
             for k, v in enumerate(pass_values(work, s.pick_mm))]
 
 
