@@ -5,6 +5,10 @@ curvature cap the s'' that each end allows can differ, and the old passes then b
 limit at one end (random_cubic seed 137: 1.0015 A by finite differences of the per-period
 positions, 1.5 % over the planner's own target). The checks here are against brute force
 (a grid search of the two-sample programme) and direct evaluation of the limits.
+
+S-curve mode: the jerk by finite differences on random cubics (the curvature's own rate of
+change), the share of an acceleration step that the third difference sees, and the reach
+over which caps are spread against a brute-force moving average.
 """
 from __future__ import annotations
 
