@@ -103,3 +103,19 @@ def corner_parts(e: Nurbs) -> list[Nurbs | Line]:
     parts = [sub_curve(e, float(a), float(b)) for a, b in zip(bounds[:-1], bounds[1:])]
     return [Line(e.line, q.start, q.end, e.feed_mm_s, e.path) if len(q.points) == 2 else q
             for q in parts if np.ptp(q.points, axis=0).max() > _SAME_POINT_MM]
+
+
+def planning_problem(e: Nurbs) -> str | None:
+    """Why the feed stage cannot walk e, or None: its parts' arc-length tables are what it
+    builds first, so a controller that checks them before moving never stops mid-program."""
+    from ipo.sampling import nurbs_table  # the planner's own tables (sampling imports the pieces)
+
+    try:
+        for part in corner_parts(e):
+            if isinstance(part, Nurbs):
+                nurbs_table(part)
+    except ValueError as err:
+        why, prefix = str(err), f"line {e.line}: "
+        return why[len(prefix):] if why.startswith(prefix) else why
+    return None
+

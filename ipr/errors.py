@@ -30,7 +30,8 @@ same table with examples.
 | E-NURBS-START        | the first control point is not the current position (within 0.001 mm)   |
 | E-NURBS-KNOT-COUNT   | knots != control points + order                                          |
 | E-NURBS-KNOT-ORDER   | a knot smaller than the one before                                       |
-| E-NURBS-KNOT-CLAMP   | the first or the last `order` knots are not all equal                    |
+| E-NURBS-KNOT-CLAMP   | the first or the last `order` knots are not all equal, or an end value  |
+|                      | is repeated more than `order` times                                      |
 | E-NURBS-KNOT-MULT    | an interior knot repeated `order` times or more                          |
 | E-NURBS-POINTS       | fewer control points than the order                                      |
 | E-NURBS-BLOCK        | a block inside a NURBS group that is not a control-point or knot block   |

@@ -82,6 +82,9 @@ def validate_knots(knots: np.ndarray, n_points: int, order: int, group_line: int
     if knots[-1] <= knots[0]:
         raise BlockError("E-NURBS-KNOT-CLAMP", "the knot vector spans no parameter range", word)
     interior = knots[order:-order]
+    if np.any(interior <= knots[0]) or np.any(interior >= knots[-1]):
+        raise BlockError("E-NURBS-KNOT-CLAMP", f"the first and last knot values may each be repeated only {order} "
+                         "times (more leaves an end control point with no influence on the curve)", word)
     if len(interior):
         _, counts = np.unique(interior, return_counts=True)
         if counts.max() >= order:

@@ -19,9 +19,10 @@ from typing import Callable
 
 import numpy as np
 
+from ipo.nurbs_split import planning_problem
 from ipo.period import PeriodBatch
 from ipr import Setup, parse_file
-from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, ProgramEnd, Program, Spindle, Stop,
+from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
 from machine.drive import Drive, DriveLimits, TravelLimitError
 from machine.extents import travel_violations
@@ -113,6 +114,8 @@ class Controller:
         start = np.array(start_position(program))
         reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
                    for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
+        reasons += [f"{program.file}:{e.line}: error[E-NURBS-PATH]: {why}" for e in motions
+                    if isinstance(e, Nurbs) and (why := planning_problem(e)) is not None]
         outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
         if outside.any():
             reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "
@@ -185,6 +188,8 @@ class Controller:
             state = "interrupted"
         except TravelLimitError as err:
             state, fault = "fault", str(err)
+        except ValueError as err:  # the planner refused a block the checks let through: stop, say why
+            state, fault = "fault", f"the planner stopped at line {drive.line}: {err}"
         finally:
             stream.close()
             if player is not None:

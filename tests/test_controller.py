@@ -231,6 +231,24 @@ def test_a_travel_fault_during_the_run_is_reported_not_raised():
     assert result.position_mm[0] == pytest.approx(5.0)
 
 
+def test_a_planner_refusal_during_the_run_is_a_fault_not_a_crash():
+    items = shifted(line_stream(10.0, size=50), 21)[:2] + [ValueError("line 21: something the checks missed")]
+    result = controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
+    assert result.state == "fault" and "something the checks missed" in result.fault and result.periods == 100
+
+
+def test_a_nurbs_the_planner_cannot_walk_is_rejected_before_anything_moves(tmp_path):
+    from ipo.config import default_config
+    from machine.controller import Controller, ProgramRejected
+    # three coincident control points inside a cubic: C'(u) = 0 where the curve passes them (a cusp)
+    path = tmp_path / "cusp.nc"
+    path.write_text("G21 G90 G17 G64\nG0 X0 Y0 Z0\nG1 X10 F600\nG06.2 P4 K0 X10 Y0 R1 F600\nK0 X15 Y0\n"
+                    "K0 X20 Y5\nK0 X20 Y5\nK1 X20 Y5\nK2 X25 Y10\nK3 X30 Y10\nK4\nK4\nK4\nK4\nG1 X40 Y10\nM2\n")
+    with pytest.raises(ProgramRejected) as info:
+        Controller(default_config()).check(path)
+    assert any(":4: error[E-NURBS-PATH]: NURBS has a vanishing derivative" in r for r in info.value.reasons)
+
+
 def test_servo_model_from_the_machine_file_reports_contour_error():
     import dataclasses
     from ipo.config import Servo, default_config

@@ -58,6 +58,9 @@ CASES = [
     ("F100 G6.2 P2 K0\nX1 K0\nX2\nK1\nK1", "E-NURBS-KNOT-COUNT", 5, 1),
     ("F100 G6.2 P2 K1\nX1 K0", "E-NURBS-KNOT-ORDER", 2, 4),
     ("F100 G6.2 P2 K0\nX1 K1\nK1\nK1", "E-NURBS-KNOT-CLAMP", 4, 1),
+    # an end knot value repeated more than `order` times leaves an end control point without influence
+    ("F100 G6.2 P2 K0\nX1 K0\nX2 K0\nK1\nK1", "E-NURBS-KNOT-CLAMP", 5, 1),
+    ("F100 G6.2 P2 K0\nX1 K0\nX2 K1\nK1\nK1", "E-NURBS-KNOT-CLAMP", 5, 1),
     ("F100 G6.2 P2 K0\nX1 K0\nX2 K1\nX3 K1\nK2\nK2", "E-NURBS-KNOT-MULT", 6, 1),
     ("F100 G6.2 P3 K0\nX1 K0\nK0\nK1\nK1", "E-NURBS-POINTS", 5, 1),
     ("F100\nG5.2 X1 Y1 P1 L4\nG5.3", "E-NURBS-POINTS", 3, 1),

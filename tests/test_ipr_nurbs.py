@@ -60,7 +60,7 @@ def test_first_control_point_must_be_the_current_position(dx, ok):
 
 
 def test_incremental_control_points_are_relative_to_the_previous_one():
-    (n,) = _nurbs("G0 X5 Y5\nF600\nG91\nG6.2 P3 K0 R1\nX10 Y0 K0\nX0 Y10 K0 R3\nX-5 K0\nK1\nK1\nK1\n")
+    (n,) = _nurbs("G0 X5 Y5\nF600\nG91\nG6.2 P3 K0 R1\nX10 Y0 K0\nX0 Y10 K0 R3\nX-5 K0.5\nK1\nK1\nK1\n")
     assert n.points.tolist() == [[5, 5, 0], [15, 5, 0], [15, 15, 0], [10, 15, 0]]
     assert n.weights.tolist() == [1, 1, 3, 1]
 
