@@ -29,8 +29,8 @@ import numpy as np
 
 from ipo import lookahead as la
 from ipo.config import METHODS, MachineConfig
-from ipo.limits import (CORNER_SHARE, axis_velocity_cap, jerk_accel_scale, low_caps_to_stops, lowest_smooth_x,
-                        min_blend_radius_mm, sample_caps, spread_min)
+from ipo.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, jerk_accel_scale, low_caps_to_stops,
+                        lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
 from ipo.period import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.period_output import PeriodOutput, centripetal_binds, period_reasons
 from ipo.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
@@ -98,6 +98,7 @@ class FeedPlanner:
             self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
         self._blend_r_min = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
+        self._g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
         # the output side runs the filter; the planner reads only its span (fir.m)
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
         self._n_nurbs = 0
@@ -196,7 +197,8 @@ class FeedPlanner:
             return
         pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
                          blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
-                         nurbs=self._nurbs, add_blend=self._add_nurbs, min_blend_radius_mm=self._blend_r_min)
+                         nurbs=self._nurbs, add_blend=self._add_nurbs, min_blend_radius_mm=self._blend_r_min,
+                         g2_limits=self._g2_limits)
         if final:
             motions.clear()
         else:

@@ -25,6 +25,10 @@ NEGLIGIBLE_STEP = 0.005
 # per-period positions (the jerk) weighted by the quadratic B-spline of the three periods
 # around it: at most 3/4 da / T, when the step falls mid-period.
 STEP_JERK_SHARE = 0.75
+# S-curve mode: a corner blend crossed below this multiple of lowest_smooth_x is slower than
+# stopping at the corner (single 30 and 90 degree corners between 10 mm lines at F6000 broke
+# even near a blend cap of 7.8 mm/s, 1.56 sqrt(lowest_smooth_x))
+G2_BLEND_MIN_X = 2.5
 
 
 def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
@@ -137,6 +141,20 @@ def min_blend_radius_mm(fir, a_max: np.ndarray, j_max: np.ndarray | None, period
         return 0.0
     x_low, j = lowest_smooth_x(fir, a_max, period_s), float(j_max.min())
     return max(x_low / (j * period_s), x_low / float(a_max.min()), float(np.sqrt(x_low**1.5 / j)))
+
+
+def g2_blend_limits(fir, a_max: np.ndarray, j_max: np.ndarray | None,
+                    period_s: float) -> tuple[float, float, float, float] | None:
+    """S-curve mode: (a, j, x_min, step) for pieces.build's curvature-continuous corner
+    blends: the smallest path acceleration and jerk limits, the lowest cap on v^2 at which
+    crossing such a blend beats stopping at the corner (G2_BLEND_MIN_X lowest_smooth_x), and
+    what a circular blend's curvature step 1/R allows, v^2 / R <= J T / STEP_JERK_SHARE
+    (sample_caps). None without the filter (trapezoid mode keeps its circular blends)."""
+    if fir is None:
+        return None
+    j = float(j_max.min())
+    return (float(a_max.min()), j, G2_BLEND_MIN_X * lowest_smooth_x(fir, a_max, period_s),
+            j * period_s / STEP_JERK_SHARE)
 
 
 def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np.ndarray,

@@ -16,7 +16,9 @@ R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each mo
 (theta the change of direction); a corner between a line and an arc, or two arcs, gets a
 cubic of the same size. A corner that involves a NURBS gets a cubic sized by the same
 rule and checked against the programmed corner (ipo.nurbs_corner); the NURBS is trimmed to
-the part between its blends (ipo.subcurve), which its stepper walks. G61 and P0 corners,
+the part between its blends (ipo.subcurve), which its stepper walks. In S-curve mode a
+corner between two lines gets a curvature-continuous quintic within P instead of the arc
+(ipo.g2_blend): the arc's curvature steps cap v^2 / R <= J T. G61 and P0 corners,
 reversals and corners where no blend fits are not blended: the planner crosses them within
 one period at the corner cap (ipo.limits.corner_cap).
 """
@@ -28,12 +30,13 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo import nurbs as nk
+from ipo.g2_blend import BEZIER5_KNOTS, arc_blend_x, g2_control_points, g2_corner_x, g2_reach_mm
 from ipo.nurbs_corner import Side, corner_blend
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 KIND_ANALYTIC = 0
 KIND_NURBS = 1  # a NURBS entity: walked by its stepper
-KIND_BLEND = 2  # a corner blend curve (a cubic): evaluated by arc length directly
+KIND_BLEND = 2  # a corner blend curve (a cubic or quintic Bezier): evaluated by arc length directly
 _COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
 _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
 _CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs and NURBS are crossed as they are
@@ -151,7 +154,8 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
 
 
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, nurbs, add_blend, min_blend_radius_mm: float = 0.0) -> tuple[Pieces, float]:
+          rapid_mm_s: float, nurbs, add_blend, min_blend_radius_mm: float = 0.0,
+          g2_limits: tuple[float, float, float, float] | None = None) -> tuple[Pieces, float]:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
     Without `final`, the last motion is held back (its end corner needs the next move);
@@ -161,7 +165,11 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     table, trimmed()); a NURBS trimmed by corner blends gets the driver of its remaining part
     at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
     its index. A corner whose blend radius would be below min_blend_radius_mm is not blended
-    (S-curve mode: ipo.limits.min_blend_radius_mm).
+    (S-curve mode: ipo.limits.min_blend_radius_mm). With g2_limits = (a, j, x_min, step)
+    (S-curve mode: ipo.limits.g2_blend_limits) a corner between two lines whose
+    curvature-continuous blend (ipo.g2_blend) can be crossed at v^2 >= x_min under the path
+    acceleration a and jerk j, and faster than the arc (whose curvature steps allow
+    v^2 / R <= step), gets that blend instead.
     """
     n = len(motions)
     ents = [m[0] for m in motions]
@@ -210,9 +218,15 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     avail = np.minimum(reach[:-1], reach[1:])
     r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
-    blend &= radius >= min_blend_radius_mm
+    g2, d_g2 = np.zeros_like(blend), np.zeros(n - 1)
+    if g2_limits is not None:
+        a_g2, j_g2, x_g2, step_g2 = g2_limits
+        d_g2 = g2_reach_mm(2.0 * half, tol[:-1], avail)
+        x_arc = np.where(radius >= min_blend_radius_mm, arc_blend_x(radius, a_g2, j_g2, step_g2), 0.0)
+        g2 = blend & (g2_corner_x(2.0 * half, d_g2, a_g2, j_g2) >= np.maximum(x_g2, x_arc))
+    blend &= g2 | (radius >= min_blend_radius_mm)
     radius = np.where(blend, radius, 0.0)
-    d = radius * np.tan(half)
+    d = np.where(g2, d_g2, radius * np.tan(half))
     # a corner that involves an arc gets a cubic blend from the point d before it to the
     # point d after it, tangent to both moves, with the handles of a circular arc of
     # radius d / tan(theta / 2): sized like the circular blend between lines
@@ -248,7 +262,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     if final:
         pc.stop_after[own[-1]] = True
     pc.corner_tol_mm[own] = tol[:emit]
-    jb = np.nonzero(blend[:emit])[0]
+    jb = np.nonzero(blend[:emit] & ~g2[:emit])[0]
     t1, t2 = unit[jb], unit[jb + 1]
     m_perp = (t2 - np.cos(theta[jb])[:, None] * t1) / np.sin(theta[jb])[:, None]
     k = bl[jb]
@@ -266,6 +280,8 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         _put_blend(pc, bl[j], np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), nurbs, add_blend)
     for j, ctrl in nurbs_blends.items():
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
+    for j in np.nonzero(g2[:emit])[0]:
+        _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
     for i in np.nonzero(~ll)[0]:
         e, slot = ents[i], 2 * i
         if isinstance(e, Arc):
@@ -277,9 +293,10 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
 
 
 def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:
-    """The cubic with control points ctrl as the blend piece in slot (whose line and feed,
-    those of the move before it, are set)."""
-    idx = add_blend(Nurbs(int(pc.line[slot]), 3, BEZIER3_KNOTS.copy(), np.ones(4), ctrl,
+    """The cubic (or G2 quintic) Bezier with control points ctrl as the blend piece in slot
+    (whose line and feed, those of the move before it, are set)."""
+    knots = BEZIER3_KNOTS if len(ctrl) == 4 else BEZIER5_KNOTS
+    idx = add_blend(Nurbs(int(pc.line[slot]), len(ctrl) - 1, knots.copy(), np.ones(len(ctrl)), ctrl,
                           float(pc.feed_mm_s[slot])))
     pc.kind[slot] = KIND_BLEND
     pc.nurbs[slot] = idx
