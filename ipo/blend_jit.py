@@ -1,4 +1,4 @@
-"""Compiled kernels for the cubic Bezier corner blends (ipo.pieces), which a raster program
+"""Compiled kernels for the cubic (and quintic G2) Bezier corner blends (ipo.pieces), which a raster program
 has by the ten thousand: the arc-length table and the points at given arc lengths, the
 same arithmetic as ipo.sampling's generic numpy path (nurbs_table, NurbsTable.points_at)
 without its per-call overhead.
@@ -11,7 +11,11 @@ from numba import njit
 
 @njit(cache=True)
 def _derivs(p, u, out_c, out_d1, out_d2):
-    """C(u), C'(u), C''(u) of the cubic Bezier with control points p (4, 3)."""
+    """C(u), C'(u), C''(u) of the cubic Bezier with control points p (4, 3), or of the
+    Bezier of any other degree (the quintic G2 blends, ipo.g2_blend)."""
+    if p.shape[0] != 4:
+        _derivs_any(p, u, out_c, out_d1, out_d2)
+        return
     for a in range(3):
         p0, p1, p2, p3 = p[0, a], p[1, a], p[2, a], p[3, a]
         a1 = 3 * (p1 - p0)
@@ -22,6 +26,36 @@ def _derivs(p, u, out_c, out_d1, out_d2):
             out_c[i, a] = p0 + uu * (a1 + uu * (a2 + uu * a3))
             out_d1[i, a] = a1 + uu * (2 * a2 + 3 * uu * a3)
             out_d2[i, a] = 2 * a2 + 6 * uu * a3
+
+
+@njit(cache=True)
+def _derivs_any(p, u, out_c, out_d1, out_d2):
+    """_derivs for a Bezier of degree n = len(p) - 1 from its power-basis coefficients,
+    a_k = C(n, k) sum_i (-1)^(k - i) C(k, i) P_i, by Horner's rule."""
+    n = p.shape[0] - 1
+    coef = np.zeros((n + 1, 3))
+    binom_n = 1.0
+    for k in range(n + 1):
+        binom_k = 1.0
+        for i in range(k + 1):
+            sign = 1.0 if (k - i) % 2 == 0 else -1.0
+            for a in range(3):
+                coef[k, a] += sign * binom_k * p[i, a]
+            binom_k = binom_k * (k - i) / (i + 1)
+        for a in range(3):
+            coef[k, a] *= binom_n
+        binom_n = binom_n * (n - k) / (k + 1)
+    for i in range(u.shape[0]):
+        uu = u[i]
+        for a in range(3):
+            c, d1, d2 = coef[n, a], n * coef[n, a], n * (n - 1) * coef[n, a]
+            for k in range(n - 1, -1, -1):
+                c = c * uu + coef[k, a]
+                if k >= 1:
+                    d1 = d1 * uu + k * coef[k, a]
+                if k >= 2:
+                    d2 = d2 * uu + k * (k - 1) * coef[k, a]
+            out_c[i, a], out_d1[i, a], out_d2[i, a] = c, d1, d2
 
 
 @njit(cache=True)

@@ -14,6 +14,7 @@ import numpy as np
 
 from ipo import nurbs as nk
 from ipo.blend_jit import bezier_points_at, bezier_table
+from ipo.g2_blend import BEZIER5_KNOTS
 from ipo.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces, frame
 
 MAX_TURN_RAD = 0.03
@@ -69,7 +70,7 @@ class NurbsTable:
 
     def points_at(self, e, s: np.ndarray) -> np.ndarray:
         """Points of NURBS e at arc lengths s (see u_at)."""
-        if _is_bezier3(e):
+        if _is_blend(e):
             return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, np.clip(s, 0.0, self.length),
                                     _GAUSS_X, _GAUSS_W)
         return _derivs(e, self.u_at(e, s), 0)[0]
@@ -109,6 +110,12 @@ def _is_bezier3(e) -> bool:
             and bool(np.all(e.weights == 1)))
 
 
+def _is_blend(e) -> bool:
+    """A corner blend (compiled in ipo.blend_jit): a cubic or the G2 quintic Bezier."""
+    return _is_bezier3(e) or (e.degree == 5 and len(e.points) == 6 and np.array_equal(e.knots, BEZIER5_KNOTS)
+                              and bool(np.all(e.weights == 1)))
+
+
 def _derivs(e, u: np.ndarray, n: int) -> np.ndarray:
     """C(u) and its first n derivatives; a cubic Bezier (the corner blends) in closed form."""
     if _is_bezier3(e):
@@ -140,7 +147,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
     acceleration), and the machine brakes into an unblended corner at a curve's end
     within about that distance, at the halved acceleration of the interval next to it.
     """
-    if _is_bezier3(e):  # a corner blend: the same table, compiled
+    if _is_blend(e):  # a corner blend: the same table, compiled
         *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
                                   MAX_TURN_RAD, MAX_SPACING_MM)
         if not ok:

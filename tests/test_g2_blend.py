@@ -14,7 +14,7 @@ from ipo.feed import FeedPlanner
 from ipo.g2_blend import arc_blend_x, g2_corner_x
 from ipo.period import PeriodBatch
 from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, Motion, build
-from ipo.sampling import nurbs_table
+from ipo.sampling import ARC_TOL_MM, nurbs_table
 from ipr.entities import Line, PathControl
 from tests.test_feed import FINE
 
@@ -175,3 +175,19 @@ def test_caps_used_to_choose_match_the_planned_speed():
         assert x == pytest.approx(x_ref, rel=0.02)
     r = 2.0
     assert arc_blend_x(np.array([r]), 500.0, 5e4, 60.0)[0] == pytest.approx(min(60.0 * r, (5e4 * r * r) ** (2 / 3)))
+
+
+def test_quintic_table_and_points_by_arc_length_against_scipy():
+    """The compiled quintic path (ipo.blend_jit via nurbs_table / points_at): arc length and
+    points at given arc lengths against scipy's BSpline integrated on a dense grid."""
+    pc, drivers = build_corner(corner(70, 0.05), g2_limits=G2_ANY, min_blend_radius_mm=NO_ARC)
+    e = drivers[int(pc.nurbs[1])].entity
+    tab = nurbs_table(e)
+    spline = BSpline(np.asarray(e.knots, float), np.asarray(e.points, float), 5)
+    u = np.linspace(0, 1, 400001)
+    speed = np.linalg.norm(spline(u, 1), axis=1)
+    s_ref = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(u))])
+    assert tab.length == pytest.approx(s_ref[-1], abs=ARC_TOL_MM)  # the tables' stated accuracy
+    s = np.linspace(0, tab.length, 37)
+    want = spline(np.interp(s, s_ref, u))
+    np.testing.assert_allclose(tab.points_at(e, s), want, atol=ARC_TOL_MM)
