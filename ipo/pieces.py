@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo import nurbs as nk
-from ipo.g2_blend import BEZIER5_KNOTS, arc_blend_x, g2_control_points, g2_corner_x, g2_reach_mm
+from ipo.g2_blend import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.nurbs_corner import Side, corner_blend
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
@@ -166,10 +166,9 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
     its index. A corner whose blend radius would be below min_blend_radius_mm is not blended
     (S-curve mode: ipo.limits.min_blend_radius_mm). With g2_limits = (a, j, x_min, step)
-    (S-curve mode: ipo.limits.g2_blend_limits) a corner between two lines whose
-    curvature-continuous blend (ipo.g2_blend) can be crossed at v^2 >= x_min under the path
-    acceleration a and jerk j, and faster than the arc (whose curvature steps allow
-    v^2 / R <= step), gets that blend instead.
+    (S-curve mode: ipo.limits.g2_blend_limits) a corner between two lines gets the
+    curvature-continuous blend of ipo.g2_blend where it is faster than both the arc and a
+    stop (ipo.g2_blend.g2_corners).
     """
     n = len(motions)
     ents = [m[0] for m in motions]
@@ -220,10 +219,10 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
     g2, d_g2 = np.zeros_like(blend), np.zeros(n - 1)
     if g2_limits is not None:
-        a_g2, j_g2, x_g2, step_g2 = g2_limits
-        d_g2 = g2_reach_mm(2.0 * half, tol[:-1], avail)
-        x_arc = np.where(radius >= min_blend_radius_mm, arc_blend_x(radius, a_g2, j_g2, step_g2), 0.0)
-        g2 = blend & (g2_corner_x(2.0 * half, d_g2, a_g2, j_g2) >= np.maximum(x_g2, x_arc))
+        # the held-back last move's end corner is not known yet: taken as one that fills its half
+        g2, d_g2 = g2_corners(2.0 * half, tol[:-1], avail, radius, blend & (radius >= min_blend_radius_mm),
+                              length, lead_trim_mm, 0.0 if final else 0.5 * length[-1], g2_limits)
+        g2 &= blend
     blend &= g2 | (radius >= min_blend_radius_mm)
     radius = np.where(blend, radius, 0.0)
     d = np.where(g2, d_g2, radius * np.tan(half))

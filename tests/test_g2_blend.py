@@ -174,7 +174,8 @@ def test_caps_used_to_choose_match_the_planned_speed():
         x = g2_corner_x(np.array([np.radians(theta_deg)]), np.array([d]), a, jerk)[0]
         assert x == pytest.approx(x_ref, rel=0.02)
     r = 2.0
-    assert arc_blend_x(np.array([r]), 500.0, 5e4, 60.0)[0] == pytest.approx(min(60.0 * r, (5e4 * r * r) ** (2 / 3)))
+    assert arc_blend_x(np.array([r]), np.array([1 / r]), 500.0, 5e4, 60.0)[0] == pytest.approx(
+        min(60.0 * r, (5e4 * r * r) ** (2 / 3)))
 
 
 def test_quintic_table_and_points_by_arc_length_against_scipy():
@@ -191,3 +192,28 @@ def test_quintic_table_and_points_by_arc_length_against_scipy():
     s = np.linspace(0, tab.length, 37)
     want = spline(np.interp(s, s_ref, u))
     np.testing.assert_allclose(tab.points_at(e, s), want, atol=ARC_TOL_MM)
+
+
+def test_polyline_along_a_curve_keeps_its_chained_arcs():
+    """A 1-degree polygon of 0.17 mm moves (circle360's kind) under G64 P0.01 in S-curve mode:
+    the arcs fill half of each move and meet each other at the same curvature, so they stay
+    arcs of the polygon's radius (a quintic chain returns to curvature 0 at every join); only
+    the first and last corner, which meet a straight, and their neighbours (which then meet a
+    quintic's flat end: g2_corners decides twice) may take the quintic. An isolated 10-degree
+    corner between 10 mm lines takes it."""
+    planner = FeedPlanner(SCURVE)
+    limits = dict(g2_limits=planner._g2_limits, min_blend_radius_mm=planner._blend_r_min)
+    ang = np.radians(np.arange(0, 91))
+    pts = np.c_[10 * np.cos(ang), 10 * np.sin(ang), np.zeros(len(ang))]
+    p = PathControl(blend_tol_mm=0.01)
+    ents = [Line(i + 1, tuple(pts[i]), tuple(pts[i + 1]), 50.0, p) for i in range(len(pts) - 1)]
+    pc, _ = build_corner(ents, **limits)
+    inner = np.nonzero(pc.length > 0)[0]
+    blends = inner[(pc.kind[inner] == KIND_BLEND) | (pc.omega[inner] != 0)]
+    assert len(blends) == 89
+    assert np.sum(pc.kind[blends] == KIND_BLEND) <= 4
+    arcs = blends[2:-2]
+    assert np.all(pc.kind[arcs] == KIND_ANALYTIC)
+    np.testing.assert_allclose(pc.radius[arcs], 10 * np.cos(np.radians(0.5)), rtol=1e-4)
+    pc, _ = build_corner(corner(10, 0.01), **limits)
+    assert list(pc.kind) == [KIND_ANALYTIC, KIND_BLEND, KIND_ANALYTIC]
