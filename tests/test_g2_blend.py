@@ -217,3 +217,29 @@ def test_polyline_along_a_curve_keeps_its_chained_arcs():
     np.testing.assert_allclose(pc.radius[arcs], 10 * np.cos(np.radians(0.5)), rtol=1e-4)
     pc, _ = build_corner(corner(10, 0.01), **limits)
     assert list(pc.kind) == [KIND_ANALYTIC, KIND_BLEND, KIND_ANALYTIC]
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_polylines_in_scurve_mode(seed):
+    """Random 3-D polylines (moves 0.05-5 mm, turns up to 143 degrees, P 0.005-0.3) in S-curve
+    mode: v, a, j by finite differences within the limits, every period point within
+    P + delta of the programmed polyline, the end reached."""
+    rng = np.random.default_rng(seed)
+    n = rng.integers(4, 10)
+    length = np.exp(rng.uniform(np.log(0.05), np.log(5), n))
+    head = np.cumsum(rng.uniform(-2.5, 2.5, n))
+    steps = np.c_[length * np.cos(head), length * np.sin(head), rng.uniform(-0.3, 0.3, n) * length]
+    pts = np.vstack([[0.0, 0.0, 0.0], np.cumsum(steps, axis=0)])
+    P = float(rng.choice([0.005, 0.01, 0.05, 0.1, 0.3]))
+    p = PathControl(blend_tol_mm=P)
+    ents = [Line(i + 1, tuple(pts[i]), tuple(pts[i + 1]), float(rng.uniform(20, 100)), p) for i in range(n)]
+    pos = _periods(ents, SCURVE)
+    v = np.diff(pos, axis=0, prepend=pts[:1]) / T
+    a = np.diff(v, axis=0, prepend=np.zeros((1, 3))) / T
+    j = np.diff(a, axis=0, prepend=np.zeros((1, 3))) / T
+    jerk = np.array([ax.max_jerk_mm_s3 for ax in SCURVE.axes])
+    assert np.all(np.abs(v) <= 100.0 + 1e-6) and np.all(np.abs(a) <= A + 1e-3)
+    assert np.all(np.abs(j) <= jerk * 1.01), np.abs(j).max(0) / jerk
+    np.testing.assert_allclose(pos[-1], pts[-1], atol=1e-9)
+    dist = np.min([distance_to_segment(pos, pts[i], pts[i + 1]) for i in range(n)], axis=0)
+    assert dist.max() <= P + DELTA
