@@ -238,3 +238,21 @@ def test_vcnc_compare_roughness_of_an_inclined_cut(tmp_path, target):
         cusp_um = (r_mm - np.sqrt(r_mm**2 - pick_mm**2 / 4)) * 1e3
         assert figs["rmax_max_um"] == pytest.approx(eq2_um(0.0), rel=1e-3)
         assert cusp_um * (1 - 1e-3) <= figs["rmax_mean_um"] <= cusp_um * 1.01
+
+
+def test_vcnc_compare_roughness_needs_a_cut_that_moves_a_blu(tmp_path):
+    from pathlib import Path
+
+    from machine.cli import main
+
+    # 2 um at F0.05 (0.8 nm a period): over the 11 periods of a slope chord the commanded position
+    # moves by at most one BLU, mostly by none: the slope is taken from the nearest period that moved
+    machine = Path(__file__).resolve().parents[1] / "programs" / "finish_machine.toml"
+    prog = tmp_path / "crawl.nc"
+    prog.write_text("G21 G90 G17 G64\nS12500 M3\nG0 X0 Y0 Z0\nG1 X0.002 Z-0.001 F0.05\nM5\nM2\n")
+    res = CliRunner().invoke(main, ["compare", str(prog), str(prog), "--machine", str(machine), "--json"])
+    assert res.exit_code == 0, res.output
+    still = tmp_path / "still.nc"
+    still.write_text("G21 G90 G17 G64\nS12500 M3\nG0 X0 Y0 Z0\nG1 X0.0004 F0.05\nM5\nM2\n")
+    res = CliRunner().invoke(main, ["compare", str(still), str(still), "--machine", str(machine)])
+    assert res.exit_code != 0 and "less than a BLU" in res.output

@@ -98,9 +98,12 @@ def _roughness(run: dict, config) -> dict:
     # a chord over a few periods: one period's step is a few BLU in Z, too coarse for the slope
     chord = pos[np.minimum(idx + TANGENT_PERIODS, len(pos) - 1)] - pos[np.maximum(idx - TANGENT_PERIODS, 0)]
     length = np.linalg.norm(chord, axis=1)
-    if not np.all(length > 0):
-        raise click.ClickException("a cutting period with no motion around it: cannot take its slope")
-    tangent = chord / length[:, None]
+    moved = np.flatnonzero(length > 0)
+    if len(moved) == 0:
+        raise click.ClickException("the cut moves less than a BLU: no slope to evaluate the roughness at")
+    # a crawl can stay within one BLU over the chord's periods: its slope is its nearest measured one
+    near = moved[np.clip(np.searchsorted(moved, np.arange(len(length))), 0, len(moved) - 1)]
+    tangent = chord[near] / length[near][:, None]
     f_i = speed[idx] * 60.0 / (flutes * run["rpm"])  # feed per tooth, mm
     r = rmax_mm(r_mm, f_i, fin.pick_feed_mm, inclination_rad(tangent))
     return {"rmax_max_um": float(r.max() * 1e3), "rmax_mean_um": float(r.mean() * 1e3)}
