@@ -38,7 +38,7 @@ TOLS_MM = (0.001, 0.01)
 from ipo.fit_tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
 from ipo.g01_runs import run_vertices, split_runs  # noqa: E402
 from ipr import parse_text  # noqa: E402
-from machine.convert import convert_text  # noqa: E402
+from machine.convert import convert_text, count_blocks  # noqa: E402
 
 
 def programs(quick: bool) -> list[tuple[str, str]]:
@@ -82,8 +82,6 @@ def conversion_table(quick: bool) -> None:
 def _bound_by_corner(text: str, degree: int = 3) -> list[tuple[int, float]]:
     """The block ratio if every run became one group of degree + 1 control points and degree + 1
     knot blocks (where that is shorter), for several corner angles; arcs and rapids still end runs."""
-    from machine.convert import count_blocks
-
     entities = parse_text(text).entities
     blocks = count_blocks(text)
     out = []
