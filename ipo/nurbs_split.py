@@ -22,6 +22,7 @@ import dataclasses
 
 import numpy as np
 
+from ipo.sampling import nurbs_table
 from ipo.subcurve import sub_curve
 from ipr.entities import Line, Nurbs
 
@@ -108,8 +109,6 @@ def corner_parts(e: Nurbs) -> list[Nurbs | Line]:
 def planning_problem(e: Nurbs) -> str | None:
     """Why the feed stage cannot walk e, or None: its parts' arc-length tables are what it
     builds first, so a controller that checks them before moving never stops mid-program."""
-    from ipo.sampling import nurbs_table  # the planner's own tables (sampling imports the pieces)
-
     try:
         for part in corner_parts(e):
             if isinstance(part, Nurbs):
