@@ -166,6 +166,22 @@ def test_resume_inside_an_arc_recomputes_ijk_from_the_machine_position():
     assert resume_text(arc, p) == (f"G17F600.0000G3X0.0000Y10.0000Z0.0000I{-p[0]:.4f}J{-p[1]:.4f}")
 
 
+def test_resume_near_the_joint_of_two_tangent_arcs_picks_the_arc_the_machine_is_on():
+    # G2 from (32,0) to (36,0) about (34,0), then G3 to (40,0) about (38,0): a point 0.05 mm into the
+    # second arc is also within the tolerance of the first arc's circle (2.0012 mm from its centre)
+    first = StreamLine(8, 8, "G2...", (32.0, 0, -1), (36.0, 0, -1), True, (), ((34.0, 0, -1), "XY", False, 1200.0))
+    second = StreamLine(9, 9, "G3...", (36.0, 0, -1), (40.0, 0, -1), True, (), ((38.0, 0, -1), "XY", True, 1200.0))
+    phi = 0.025  # on the second circle, 0.05 mm past the joint
+    p = (38.0 - 2.0 * math.cos(phi), -2.0 * math.sin(phi), -1.0)
+    assert abs(math.hypot(p[0] - 34, p[1]) - 2) < 0.002 and abs(math.hypot(p[0] - 38, p[1]) - 2) < 0.002
+    point = find_resume([first, second], p)
+    assert point.seq == 9 and point.partial
+    # a point on the first arc's circle but outside its swept half is not on it
+    with pytest.raises(ResumeError):
+        find_resume([first], (34.0, -2.0, -1.0))
+    assert find_resume([first], (34.0, 2.0, -1.0)).seq == 8  # clockwise from (32,0) passes above the centre
+
+
 def test_stream_demand_by_hand():
     from machine.grbl.budget import stream_demand
 

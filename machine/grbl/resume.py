@@ -44,13 +44,22 @@ def _on_path(line: StreamLine, p: np.ndarray, tol: float) -> str:
         d = e - s
         t = float(np.dot(p - s, d) / np.dot(d, d))
         return "inside" if 0.0 < t < 1.0 and np.linalg.norm(s + t * d - p) <= tol else "off"
-    center, plane, _, _ = line.arc
+    center, plane, ccw, _ = line.arc
     a, b, n = PLANE_AXES[plane]
     c = np.asarray(center)
     r_s = np.hypot(s[a] - c[a], s[b] - c[b])
     r_p = np.hypot(p[a] - c[a], p[b] - c[b])
     lo, hi = sorted((s[n], e[n]))
-    return "inside" if abs(r_p - r_s) <= tol and lo - tol <= p[n] <= hi + tol else "off"
+    if not (abs(r_p - r_s) <= tol and lo - tol <= p[n] <= hi + tol):
+        return "off"
+    # on the circle is not enough: near where two tangent arcs meet, the point is on both circles
+    turn = 1.0 if ccw else -1.0
+
+    def swept(q):  # angle from the start to q in the direction of travel, 0..2 pi
+        return (turn * (np.arctan2(q[b] - c[b], q[a] - c[a]) - np.arctan2(s[b] - c[b], s[a] - c[a]))) % (2 * np.pi)
+
+    sweep = swept(e) if np.linalg.norm(s - e) > tol else 2 * np.pi
+    return "inside" if swept(p) <= sweep + tol / max(r_s, tol) else "off"
 
 
 def find_resume(window: Sequence[StreamLine], at_mm, tol_mm: float = POSITION_TOL_MM) -> ResumePoint:
