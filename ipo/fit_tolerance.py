@@ -65,8 +65,8 @@ def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     """Upper bound of the two-way distance between the curve and the polyline q."""
     u = fit.params
     spans = SpanPolynomials(fit.knots, fit.degree)
-    wp = fit.points * fit.weights[:, None]
-    evaluate = spans.curve(wp, fit.weights)
+    poly = spans.homogeneous(fit.points * fit.weights[:, None], fit.weights)
+    evaluate = spans.curve_of(poly)
 
     counts = _samples_per_interval(q)
     n_seg = len(q) - 1
@@ -86,7 +86,7 @@ def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     def dist2(x):
         return np.sum((seg_pts - evaluate(x)) ** 2, axis=1)
 
-    foot = foot_params(spans.homogeneous(wp, fit.weights), spans.starts, seg_pts, lo, hi, 28)
+    foot = foot_params(poly, spans.starts, seg_pts, lo, hi, 28)
     to_curve = np.sqrt(np.minimum(dist2(foot), np.minimum(dist2(lo), dist2(hi))))
     return float(max(to_poly.max(), to_curve.max()))
 
@@ -207,13 +207,12 @@ def _fit_range(q: np.ndarray, first: int, last: int, s: FitSettings,
     while m_max > 0 and blocks(m_max) >= g01_blocks:
         m_max -= 1
     data = densify(sub[_dedupe(sub)])
-    found = fewest_ctrl(data, s, m_max)
-    fit = None if found is None else found[0]
-    if found is None:
+    fit, dev = fewest_ctrl(data, s, m_max) or (None, 0.0)
+    if fit is None:
         whole = [Piece(first, last, None, 0.0, "no fit within tolerance saves blocks")]
         whole_blocks = g01_blocks
     else:
-        whole = [Piece(first, last, fit, found[1], data=data)]
+        whole = [Piece(first, last, fit, dev, data=data)]
         whole_blocks = blocks(len(fit.points))
     min_moves = s.degree + 2
     worth_splitting = fit is None or len(fit.points) > MAX_CTRL // 2

@@ -22,7 +22,6 @@ import numpy as np
 from ipo.fit_jit import foot_params
 from ipo.nurbs import basis, find_span
 
-GOLDEN = (np.sqrt(5.0) - 1.0) / 2.0
 GOLDEN_STEPS = 20  # golden-section steps of the parameter correction: the bracket shrinks to 1e-4
 MIN_WEIGHT = 1e-3  # relative to the largest weight; keeps the curve away from a pole
 
@@ -119,8 +118,11 @@ class SpanPolynomials:
 
     def curve(self, wp: np.ndarray, w: np.ndarray):
         """u -> C(u) for fixed homogeneous control points."""
+        return self.curve_of(self.homogeneous(wp, w))
+
+    def curve_of(self, poly: np.ndarray):
+        """u -> C(u) for the span polynomials `homogeneous` gives."""
         p = self.degree
-        poly = self.homogeneous(wp, w)
 
         def at(u: np.ndarray) -> np.ndarray:
             k = np.clip(np.searchsorted(self.starts, u, side="right") - 1, 0, len(self.starts) - 1)
@@ -132,23 +134,6 @@ class SpanPolynomials:
             return acc[:, :-1] / acc[:, -1:]
 
         return at
-
-
-def golden_section(dist2, lo: np.ndarray, hi: np.ndarray, iterations: int = 20) -> np.ndarray:
-    """Minimise dist2(u) (vectorised, one unknown per entry) on [lo, hi] by golden section."""  # 001 eq. 11
-    a, b = lo.copy(), hi.copy()
-    c = b - GOLDEN * (b - a)
-    d = a + GOLDEN * (b - a)
-    fc, fd = dist2(c), dist2(d)
-    for _ in range(iterations):
-        left = fc < fd
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-        probe = np.where(left, b - GOLDEN * (b - a), a + GOLDEN * (b - a))
-        f_probe = dist2(probe)
-        c, d = np.where(left, probe, d), np.where(left, c, probe)
-        fc, fd = np.where(left, f_probe, fd), np.where(left, fc, f_probe)
-    return 0.5 * (a + b)
 
 
 def _solve_wp(n_mat: np.ndarray, q: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -210,6 +195,7 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     if r < n_ctrl:
         raise ValueError(f"{r} data points cannot determine {n_ctrl} control points")
     knots = uniform_knots(n_ctrl, degree)
+    spans = SpanPolynomials(knots, degree)
     u_max = knots[-1]
     u = chord_params(q, u_max) if params is None else np.asarray(params, dtype=float).copy()
     w = np.ones(n_ctrl)
@@ -227,7 +213,7 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
         wp = _solve_wp(n_mat, q, w)
         if rational:
             wp, w = _weight_step(n_mat, q, wp, w)
-        u = _correct_params(knots, degree, wp, w, q, u)
+        u = correct_params(spans, wp, w, q, u)
         err = q - eval_homogeneous(knots, degree, wp, w, u)
         f_l = float(np.sqrt(np.sum(err**2) / max(r - 1, 1)))  # 001 App. I step 5
         if f_l < best[0]:
@@ -306,11 +292,10 @@ def _weight_step(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray
     return wp_new / s, best / s
 
 
-def _correct_params(knots, degree, wp, w, q, u) -> np.ndarray:
+def correct_params(spans: SpanPolynomials, wp, w, q, u) -> np.ndarray:
     """Each interior u_j by golden section in [u_{j-1}, u_{j+1}]; ends stay pinned."""  # 001 eq. 10-11
     if len(u) <= 2:
         return u
-    spans = SpanPolynomials(knots, degree)
     new = u.copy()
     new[1:-1] = foot_params(spans.homogeneous(wp, w), spans.starts, np.ascontiguousarray(q[1:-1]),
                             u[:-2], u[2:], GOLDEN_STEPS)

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ipo.rational_fit import (RationalFit, SpanPolynomials, basis_matrix, chord_params, evaluate,
-                              golden_section, uniform_knots)
+from ipo.rational_fit import (RationalFit, SpanPolynomials, basis_matrix, chord_params, correct_params,
+                              evaluate, uniform_knots)
 
 MIN_WEIGHT = 1e-2  # relative to the largest: keeps the shared weights away from a pole
 
@@ -106,37 +106,6 @@ def _weight_step(n_mats, sections, wps, w):
     return [np.stack([lc @ best for lc in ls], axis=1) for ls in maps], best
 
 
-def _correct_params(spans: SpanPolynomials, wps, w, sections, us) -> list[np.ndarray]:
-    """Interior u_j of every section at once by golden section in [u_{j-1}, u_{j+1}] (001 eq. 10–11):
-    each section's curve is folded into one polynomial per knot span, indexed by section."""
-    p = spans.degree
-    idx = spans.spans[:, None] - p + np.arange(p + 1)[None, :]
-    homog = np.stack([np.concatenate([wp, w[:, None]], axis=1)[idx] for wp in wps])  # (H, S, function, 4)
-    poly = np.einsum("skf,hsfd->hskd", spans.coef, homog)  # (H, S, power, 4)
-    owner = np.concatenate([np.full(len(u) - 2, h) for h, u in enumerate(us)])
-    inner = np.concatenate([q[1:-1] for q in sections])
-    lo = np.concatenate([u[:-2] for u in us])
-    hi = np.concatenate([u[2:] for u in us])
-
-    def dist2(x):
-        k = np.clip(np.searchsorted(spans.starts, x, side="right") - 1, 0, len(spans.starts) - 1)
-        t = (x - spans.starts[k])[:, None]
-        c = poly[owner, k]
-        acc = c[:, p]
-        for power in range(p - 1, -1, -1):
-            acc = acc * t + c[:, power]
-        return np.sum((inner - acc[:, :-1] / acc[:, -1:]) ** 2, axis=1)
-
-    found = golden_section(dist2, lo, hi)
-    out, start = [], 0
-    for u in us:
-        new = u.copy()
-        new[1:-1] = found[start:start + len(u) - 2]
-        start += len(u) - 2
-        out.append(np.maximum.accumulate(new))
-    return out
-
-
 def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rational: bool = True,
                max_iter: int = 30, rel_delta: float = 1e-3, give_up_above: float | None = None) -> SectionFits:
     """001 Appendix I over all sections at once with one shared weight vector (weights 1 if not
@@ -163,7 +132,7 @@ def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rati
         wps = [_wp(n, q, w) for n, q in zip(n_mats, sections)]
         if rational:
             wps, w = _weight_step(n_mats, sections, wps, w)
-        us = _correct_params(spans, wps, w, sections, us)
+        us = [correct_params(spans, wp, w, q, u) for wp, q, u in zip(wps, sections, us)]  # 001 eq. 10-11
         n_mats = [basis_matrix(knots, degree, u, n_ctrl) for u in us]
         errs = _errors(n_mats, sections, wps, w)
         f_l = float(np.sqrt(sum(np.sum(e**2) for e in errs) / max(n_pts - 1, 1)))  # 001 App. I step 5
