@@ -246,13 +246,12 @@ def _fit_all(polylines: list[np.ndarray], settings: list[FitSettings], jobs: int
 def _convert_run(run: list[Line], pieces: list[Piece], lines: list[str], frame: Frame, tol_mm: float,
                  report: ConvertReport) -> list[str] | None:
     """New text for one run from its fitted pieces, or None if it stays as it is."""
-    q = run_vertices(run)
     digits = coordinate_digits(tol_mm, frame.unit_mm)
     out: list[str] = []
     after_group = False
     any_group = False
     for piece in pieces:
-        group = _group_for(piece, q, run, frame, digits, tol_mm, report) if piece.fit else None
+        group = _group_for(piece, run, frame, digits, tol_mm, report) if piece.fit else None
         if group is None:
             if piece.fit is None:
                 report.kept_g01.append((run[piece.first].line, piece.reason))
@@ -273,7 +272,7 @@ def _convert_run(run: list[Line], pieces: list[Piece], lines: list[str], frame: 
     return out
 
 
-def _group_for(piece: Piece, q, run, frame, digits, tol_mm, report) -> list[str] | None:
+def _group_for(piece: Piece, run, frame, digits, tol_mm, report) -> list[str] | None:
     text, written = group_text(piece.fit, run[piece.first].feed_mm_s, frame, digits)
     dev = max_deviation(written, piece.data)
     if dev > tol_mm:
