@@ -21,3 +21,14 @@ def load_machine(path: str | None):
         raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
     except OSError as err:
         raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
+
+
+def check_output(path: str | None, option: str) -> None:
+    """An output file's folder must exist and be writable before any work starts."""
+    if path is None:
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise click.BadParameter(f"{path}: the folder {folder} does not exist", param_hint=option)
+    if os.path.isdir(path) or not os.access(folder, os.W_OK) or os.path.exists(path) and not os.access(path, os.W_OK):
+        raise click.BadParameter(f"{path}: cannot be written", param_hint=option)
