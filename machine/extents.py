@@ -20,7 +20,7 @@ from itertools import chain, count
 
 import numpy as np
 
-from ipo.subcurve import sub_curve
+from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 # the extreme of a NURBS is decided to this (far below any BLU; well above rounding at 1e4 mm)
