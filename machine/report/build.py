@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ipo.period import LIMIT_NAMES
+from ipo.contracts import LIMIT_NAMES
 from machine.report.digest import ROW, Digest
 from machine.report.envelope import EnvelopeData
 from machine.report.page import Blob, write_page

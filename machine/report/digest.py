@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ipo.period import LIMIT_NAMES
+from ipo.contracts import LIMIT_NAMES
 from machine.report.envelope import Envelope, EnvelopeData
 
 SIGNALS = ("feed", "vx", "vy", "vz", "ax", "ay", "az", "jx", "jy", "jz")
