@@ -6,6 +6,8 @@ Every bad value raises ConfigError naming the offending key.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -76,6 +78,10 @@ class MachineConfig:
     finishing: Finishing | None = None
     servo: Servo = Servo()
     accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+    # the interpreter's (ipr.Setup): subroutine file folders, loop limit, Fanuc M99 endless repeat
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    m99_repeat: bool = False
 
 
 def _take(table: dict, key: str, prefix: str) -> Any:
@@ -189,7 +195,8 @@ def _servo(table: Any) -> Servo:
 def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
-           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo"}
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
+           "max_loop_iterations", "m99_repeat"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -212,7 +219,21 @@ def config_from_dict(data: dict) -> MachineConfig:
         finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
         servo=_servo(data.get("servo", {})),
         accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+        **_interpreter_keys(data),
     )
+
+
+def _interpreter_keys(data: dict) -> dict:
+    path = data.get("subroutine_path", [])
+    if not isinstance(path, list) or not all(isinstance(p, str) for p in path):
+        raise ConfigError("subroutine_path", f"must be a list of folder names, got {path!r}")
+    limit = data.get("max_loop_iterations", 10_000_000)
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ConfigError("max_loop_iterations", f"must be a whole number >= 1, got {limit!r}")
+    repeat = data.get("m99_repeat", False)
+    if not isinstance(repeat, bool):
+        raise ConfigError("m99_repeat", f"must be true or false, got {repeat!r}")
+    return {"subroutine_path": tuple(path), "max_loop_iterations": limit, "m99_repeat": repeat}
 
 
 def load_config(path: str | Path) -> MachineConfig:
@@ -222,7 +243,10 @@ def load_config(path: str | Path) -> MachineConfig:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
-    return config_from_dict(data)
+    config = config_from_dict(data)
+    # subroutine folders are relative to the machine file, as LinuxCNC's are to its INI file
+    folders = tuple(str(Path(path).parent / p) for p in config.subroutine_path)
+    return dataclasses.replace(config, subroutine_path=folders)
 
 
 def default_config() -> MachineConfig:
