@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from ipo.period import PeriodBatch
+from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Line, Nurbs, Rapid
 from machine.drive import Drive, DriveLimits
 from machine.extents import arc_extent, nurbs_extent, travel_violations
@@ -158,7 +158,7 @@ def test_late_production_counts_deadline_misses():
     assert 0 < player.deadline_misses <= drive.stats.periods
 
 
-# --- whole runs against a synthetic planner (the contract of ipo.feed.plan_periods) ---
+# --- whole runs against a synthetic planner (the contract of ipo.feed.planner.plan_periods) ---
 
 def fake_planner(items):
     def planner(entities, config, *, method, feed_override, start_mm):
@@ -201,7 +201,7 @@ def test_run_handles_messages_stops_and_program_end():
     assert result.cycle_time_s == pytest.approx(0.4)
     assert result.path_length_mm == pytest.approx(math.hypot(20, 10), abs=1e-3)
     assert result.deadline_misses is None and result.max_contour_error_um is None
-    assert result.summary()["blocks"] == 1
+    assert result.summary()["motions"] == 1
 
 
 def test_answering_stop_at_m0_ends_the_run_there():
