@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ipo.errors import ROUGHNESS_TARGET, IpoError
+
 
 def phase_shift_mm(pick_mm: float) -> float:
     return pick_mm / (2.0 * np.pi)  # 002 §3.1
@@ -70,8 +72,8 @@ def feed_per_tooth_mm(r_mm: float, pick_mm: float, target_mm: float, alpha_rad) 
     f6 = np.where(alpha <= critical_alpha_rad(r_mm, f6, pick_mm) + 1e-12, f6, 0.0)
     fi = np.maximum(f5, f6)
     if np.any(fi <= 0):
-        raise ValueError(f"roughness target {target_mm * 1e3:.3f} um is below what pick feed "
-                         f"{pick_mm} mm allows with a {r_mm} mm ball")
+        raise IpoError(ROUGHNESS_TARGET, f"roughness target {target_mm * 1e3:.3f} um is below what pick feed "
+                                         f"{pick_mm} mm allows with a {r_mm} mm ball")
     return fi
 
 
