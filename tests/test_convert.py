@@ -66,7 +66,6 @@ def test_ellipse_run_becomes_g06_2_within_tolerance(tol_mm):
     out, rep = convert_text(src, tol_mm)
     before, after = _check_round_trip(src, out, tol_mm)
     assert rep.groups >= 1 and rep.max_deviation_mm <= tol_mm
-    assert rep.blocks_bound <= rep.blocks_after
     assert rep.blocks_after < rep.blocks_before / 2
     assert rep.blocks_before == count_blocks(src) and rep.blocks_after == count_blocks(out)
     # every group ends exactly on a vertex of the run (same number written, same float read)
@@ -110,7 +109,7 @@ def test_short_runs_and_other_blocks_stay_unchanged():
     src = "G21 G90\nG0 X0 Y0 Z0\nG1 X1 F100\nX2 Y0.1\nX3 Y0.3\n#1=2\nG1 X[#1*2] Y1\nG2 X6 Y1 I1 J0\nM2\n"
     out, rep = convert_text(src, 0.01)
     assert out == src
-    assert rep.groups == 0 and rep.runs == 1 and rep.short_runs == 1
+    assert rep.groups == 0 and rep.chains == 1
 
 
 def test_runs_break_at_feed_changes_and_corners():
@@ -120,7 +119,7 @@ def test_runs_break_at_feed_changes_and_corners():
     out, rep = convert_text(src, 0.01)
     after = parse_text(out).entities
     feeds = sorted({round(e.feed_mm_s * 60) for e in after if isinstance(e, Nurbs)})
-    assert rep.runs == 2 and feeds == [2000, 3000]
+    assert rep.chains == 2 and feeds == [2000, 3000]
 
 
 def test_worker_processes_give_the_same_program():

@@ -1,6 +1,7 @@
-"""Program -> program: replace G01 runs by Fanuc G06.2 groups (001 rational fits).
+"""Program -> program: replace chains of G01/G02/G03 moves by Fanuc G06.2 groups (001 rational fits).
 
-Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
+Chains run through corners (ipo.fit.chains, ipo.fit.groups); a group keeps a sharp
+corner as a knot of multiplicity = degree. Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
 so that each entity is tied to its source line together with the units, distance
 mode and offsets in force there); every line outside a fitted piece is copied
 unchanged. A G06.2 group starts at the current position (its first block carries
@@ -20,14 +21,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ipo.fit.tolerance import FitSettings, Piece, fit_polyline, max_deviation, nurbs_blocks
-from ipo.fit.g01_runs import DEFAULT_CORNER_DEG, run_vertices, split_runs
+from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
+from ipo.fit.groups import FitOptions, Span, plan_chain
 from ipo.fit.rational import RationalFit
+from ipo.fit.tolerance import max_deviation
 from ipr import Setup, parse_line
-from ipr.entities import Line
+from ipr.entities import Arc, Line
 from ipr.interpreter import Interpreter
 
-PURE_LETTERS = frozenset("NGXYZF")
+PURE_LETTERS = frozenset("NGXYZIJKRF")
+PURE_G = frozenset({1.0, 2.0, 3.0})
 AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
@@ -47,13 +50,10 @@ class Frame:
 
 @dataclass(slots=True)
 class ConvertReport:
-    runs: int = 0  # G01 runs of two moves or more
-    short_runs: int = 0  # too short for a G06.2 group to save blocks
+    chains: int = 0  # chains of two moves or more (G1/G2/G3 without a break)
+    sharp_corners: int = 0  # vertices kept sharp inside groups (a knot of multiplicity = degree)
     groups: int = 0
     moves_replaced: int = 0
-    # the fewest blocks any conversion of these runs could reach: every run as one group of
-    # degree + 1 control-point blocks and degree + 1 knot blocks where that is shorter than the run
-    blocks_bound: int = 0
     kept_g01: list[tuple[int, str]] = field(default_factory=list)  # (source line, why) pieces left G01
     max_deviation_mm: float = 0.0
     fit_time_s: float = 0.0
@@ -97,7 +97,7 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
         out = interp.out
         if out:
             counts[n] = len(out)
-            if len(out) == 1 and isinstance(out[0], Line):
+            if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
                 frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset))
             entities.extend(out)
@@ -109,14 +109,15 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
 
 
 def _pure(text: str) -> bool:
-    """A plain G1 block: only N, G1, X, Y, Z, F words, no comment, assignment or block delete."""
+    """A plain motion block: only N, G1/G2/G3, X, Y, Z, I, J, K, R, F words, no comment, assignment
+    or block delete (dropping it changes nothing but the path)."""
     if "(" in text or ";" in text:
         return False
     block = parse_line(text)
     if block.assigns or block.messages or block.delete or block.percent:
         return False
     for letter, value in block.words:
-        if letter not in PURE_LETTERS or (letter == "G" and value != 1.0):
+        if letter not in PURE_LETTERS or (letter == "G" and value not in PURE_G):
             return False
     return True
 
@@ -134,12 +135,18 @@ def _needs_motion_mode(lines: list[str], start: int) -> bool:
     return False
 
 
-def _with_g1(text: str) -> str:
-    """The same block with an explicit G1 (a G06.2 group leaves no motion mode active)."""
-    if any(l == "G" for l, _ in parse_line(text).words):
-        return text
+def motion_code(move) -> str:
+    return "G1" if isinstance(move, Line) else ("G3" if move.ccw else "G2")
+
+
+def _with_motion(text: str, code: str) -> str | None:
+    """The same block with an explicit motion code (a G06.2 group leaves no motion mode active);
+    the block itself if it has a G word of its own, None if it has G words but none of motion."""
+    gs = [v for l, v in parse_line(text).words if l == "G"]
+    if gs:
+        return text if set(gs) & OWN_AXIS_G else None
     m = _N_WORD.match(text)
-    return f"{m.group(1)} G1 {text[m.end():]}" if m else f"G1 {text.lstrip()}"
+    return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
 
 
 def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
@@ -177,10 +184,11 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
 
 
 def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float = DEFAULT_CORNER_DEG,
-                 file: str = "<string>", setup: Setup | None = None,
-                 jobs: int | None = None) -> tuple[str, ConvertReport]:
-    """The program with its G01 runs fitted within tol_mm, and what was done (jobs: worker
-    processes for the fits, default one per core)."""
+                 file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
+                 accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0) -> tuple[str, ConvertReport]:
+    """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes
+    for the fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the
+    sharp-corner test of ipo.fit.chains)."""
     if not tol_mm > 0:
         raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
     if not 1 <= degree <= 5:
@@ -189,94 +197,109 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     entities, frames, counts = _interpret(lines, file, setup)
     pure = {n for n in frames if _pure(lines[n - 1])}
 
-    def joinable(a: Line, b: Line) -> bool:
+    def joinable(a, b) -> bool:
         return b.line == a.line + 1 and a.line in pure and b.line in pure and frames[a.line] == frames[b.line]
 
     report = ConvertReport(bytes_before=len(text.encode()), blocks_before=count_blocks(text))
-    replaced: dict[int, list[str]] = {}  # first source line of a run -> its new text
+    replaced: dict[int, list[str]] = {}  # first source line of a chain -> its new text
     skip: set[int] = set()
+    prefix: dict[int, str] = {}  # source line -> the motion code it needs after a group
+    after: dict[int, list[str]] = {}  # source line -> blocks written after it
     t0 = time.perf_counter()
-    todo = []
-    for run in split_runs(entities, corner_deg=corner_deg, joinable=joinable):
-        if len(run) < 2 or run[0].line not in pure:
+    chains = [c for c in split_chains(entities, tol_mm, joinable) if c.moves[0].line in pure]
+    report.chains = len(chains)
+    options = [_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s)
+               for c in chains]
+    for chain, spans in zip(chains, _plan_all(chains, options, jobs)):
+        new, last_is_group = _convert_chain(chain, spans, lines, frames[chain.moves[0].line], tol_mm, report)
+        if new is None:
             continue
-        report.runs += 1
-        report.blocks_bound += min(0, 2 * (degree + 1) - len(run))
-        if len(run) <= nurbs_blocks(degree + 1, degree):
-            report.short_runs += 1
-            continue
-        todo.append(run)
-    settings = [_settings(tol_mm, degree, frames[run[0].line]) for run in todo]
-    for run, pieces in zip(todo, _fit_all([run_vertices(r) for r in todo], settings, jobs)):
-        new = _convert_run(run, pieces, lines, frames[run[0].line], tol_mm, report)
-        if new is not None:
-            replaced[run[0].line] = new
-            skip.update(e.line for e in run)
+        replaced[chain.moves[0].line] = new
+        skip.update(m.line for m in chain.moves)
+        if last_is_group:
+            _restore_motion(lines, chain.moves[-1].line, motion_code(chain.moves[-1]), after, prefix)
     report.fit_time_s = time.perf_counter() - t0
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
         if n in replaced:
             out += replaced[n]
         elif n not in skip:
-            out.append(raw)
+            out.append(_with_motion(raw, prefix[n]) if n in prefix else raw)
+        out += after.get(n, [])
     result = "\n".join(out)
-    report.blocks_bound += report.blocks_before
     report.bytes_after = len(result.encode())
     report.blocks_after = count_blocks(result)
     return result, report
 
 
-def _settings(tol_mm: float, degree: int, frame: Frame) -> FitSettings:
-    """The fit's own tolerance: T less what rounding the written control points can add."""
-    return FitSettings(tol_mm - rounding_bound_mm(coordinate_digits(tol_mm, frame.unit_mm), frame.unit_mm), degree)
+def _restore_motion(lines: list[str], last: int, code: str, after: dict, prefix: dict) -> None:
+    """After a group that ends a chain: the next block that relies on the modal motion gets the code
+    the program had there, on itself where it is the very next block, else as a block of its own."""
+    if not _needs_motion_mode(lines, last):
+        return
+    nxt = lines[last] if last < len(lines) else ""
+    if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, code) is not None:
+        prefix[last + 1] = code
+    else:
+        after[last] = [code]
 
 
-def _fit_all(polylines: list[np.ndarray], settings: list[FitSettings], jobs: int | None) -> list[list[Piece]]:
-    """fit_polyline on every run, in worker processes where there is more than one core to use
-    (each run's fit is independent of the others; results come back in order)."""
+def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_mm_s2: float,
+             max_feed_mm_s: float) -> FitOptions:
+    """The fit's own tolerance: T less what rounding the written control points can add (a piece with
+    arcs also gives up their chords' sag, ipo.fit.groups)."""
+    fit_tol = tol_mm - rounding_bound_mm(coordinate_digits(tol_mm, frame.unit_mm), frame.unit_mm)
+    return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
+
+
+def _plan_all(chains: list[Chain], options: list[FitOptions], jobs: int | None) -> list[list[Span]]:
+    """plan_chain on every chain, in worker processes where there is more than one core to use
+    (each chain's fit is independent of the others; results come back in order)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
-    if jobs == 1 or len(polylines) < 2 * jobs:
-        return [fit_polyline(q, s) for q, s in zip(polylines, settings)]
+    if jobs == 1 or len(chains) < 2 * jobs:
+        return [plan_chain(c, o) for c, o in zip(chains, options)]
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(fit_polyline, polylines, settings, chunksize=4))
+        return list(pool.map(plan_chain, chains, options, chunksize=1))
 
 
-def _convert_run(run: list[Line], pieces: list[Piece], lines: list[str], frame: Frame, tol_mm: float,
-                 report: ConvertReport) -> list[str] | None:
-    """New text for one run from its fitted pieces, or None if it stays as it is."""
+def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Frame, tol_mm: float,
+                   report: ConvertReport) -> tuple[list[str] | None, bool]:
+    """New text for one chain from its spans (None if it stays as it is), and whether it ends in a group."""
     digits = coordinate_digits(tol_mm, frame.unit_mm)
     out: list[str] = []
-    after_group = False
-    any_group = False
-    for piece in pieces:
-        group = _group_for(piece, run, frame, digits, tol_mm, report) if piece.fit else None
+    after_group = any_group = False
+    for span in spans:
+        moves = chain.moves[span.first:span.last]
+        group = _group_for(span, moves, frame, digits, tol_mm, chain.sag_mm, report) \
+            if span.fit is not None else None
         if group is None:
-            if piece.fit is None:
-                report.kept_g01.append((run[piece.first].line, piece.reason))
-            src = [lines[e.line - 1] for e in run[piece.first:piece.last]]
+            src = [lines[m.line - 1] for m in moves]
             if after_group:
-                src[0] = _with_g1(src[0])
+                src[0] = _with_motion(src[0], motion_code(moves[0]))  # pure blocks: G1/G2/G3 or none
             out += src
+            if span.fit is None:
+                report.kept_g01.append((moves[0].line, "no group saves blocks"))
             after_group = False
         else:
             out += group
             after_group = any_group = True
             report.groups += 1
-            report.moves_replaced += piece.last - piece.first
+            report.moves_replaced += len(moves)
+            p = span.fit.degree
+            if p > 1:
+                report.sharp_corners += (int(np.sum(np.diff(span.fit.knots) == 0)) - 2 * p) // (p - 1)
     if not any_group:
-        return None
-    if after_group and _needs_motion_mode(lines, run[-1].line):
-        out.append("G1")
-    return out
+        return None, False
+    return out, after_group
 
 
-def _group_for(piece: Piece, run, frame, digits, tol_mm, report) -> list[str] | None:
-    text, written = group_text(piece.fit, run[piece.first].feed_mm_s, frame, digits)
-    dev = max_deviation(written, piece.data)
+def _group_for(span: Span, moves, frame, digits, tol_mm, sag_mm, report) -> list[str] | None:
+    text, written = group_text(span.fit, moves[0].feed_mm_s, frame, digits)
+    dev = max_deviation(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
     if dev > tol_mm:
-        report.kept_g01.append((run[piece.first].line, f"rounded curve {dev * 1e3:.3f} um off"))
+        report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))
         return None
     report.max_deviation_mm = max(report.max_deviation_mm, dev)
     return text

@@ -245,15 +245,27 @@ def _wp_map(n_mat: np.ndarray, q: np.ndarray) -> np.ndarray:
     (its right-hand side Q_j sum_i N_i w_i is), with the end points pinned. Shape (dim, m, m)."""
     r, m = n_mat.shape
     dim = q.shape[1]
-    pinv = np.linalg.pinv(n_mat[:, 1:-1])
+    inner = n_mat[:, 1:-1]
+    # normal equations instead of a pseudo-inverse (an SVD per weight step was most of a fit's
+    # time): the B-spline basis with data in every span is well conditioned
+    gram = inner.T @ inner
     out = np.zeros((dim, m, m))
     for c in range(dim):
         rhs = q[:, c, None] * n_mat
         rhs[:, 0] -= n_mat[:, 0] * q[0, c]
         rhs[:, -1] -= n_mat[:, -1] * q[-1, c]
-        out[c, 1:-1] = pinv @ rhs
+        out[c, 1:-1] = _solve_normal(gram, inner.T @ rhs, inner, rhs)
         out[c, 0, 0], out[c, -1, -1] = q[0, c], q[-1, c]
     return out
+
+
+def _solve_normal(gram: np.ndarray, proj: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The least-squares solution of a x = b from its normal equations (gram = a^T a, proj = a^T b),
+    or by SVD where they are singular."""
+    try:
+        return np.linalg.solve(gram, proj)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(a, b, rcond=None)[0]
 
 
 def _weight_step(n_mat: np.ndarray, q: np.ndarray, wp: np.ndarray, w: np.ndarray):

@@ -82,6 +82,14 @@ def max_deviation(fit: RationalFit, q: np.ndarray) -> float:
     seg_pts = q[owner] + tt[:, None] * (q[owner + 1] - q[owner])
     lo = u[np.clip(owner - 1, 0, n_seg)]
     hi = u[np.clip(owner + 2, 0, n_seg)]
+    # a knot of multiplicity >= degree is a corner: the distance is not unimodal across it, so the
+    # foot search stays on the interval's own side of the nearest corner knots
+    inner = fit.knots[fit.degree + 1:-fit.degree - 1]
+    values, mult = np.unique(inner, return_counts=True)
+    corners = np.concatenate([[u[0]], values[mult >= fit.degree], [u[-1]]])
+    eps = 1e-9 * (u[-1] - u[0])  # a data parameter on a corner knot may be off it by rounding
+    lo = np.maximum(lo, corners[np.searchsorted(corners, u[owner] + eps, side="right") - 1])
+    hi = np.minimum(hi, corners[np.searchsorted(corners, u[owner + 1] - eps, side="left")])
 
     def dist2(x):
         return np.sum((seg_pts - evaluate(x)) ** 2, axis=1)

@@ -1,9 +1,12 @@
-"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30] [--jobs N]`: G01 runs -> G06.2.
+"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30] [--jobs N] [--compare]`.
 
-Fits every run of consecutive G01 moves with 001's rational B-spline approximation
-(the fewest control points within T of the polyline, both ways) and writes the
-program with each fitted run as a Fanuc G06.2 group; everything else is copied.
-Prints runs, blocks and bytes before/after, the largest deviation and the fit time.
+Fits every chain of G1/G2/G3 moves (ipo.fit.chains: corners do not end a chain; sharp
+ones stay sharp inside the curve) with 001's rational B-spline approximation, the
+fewest written blocks within T of the path both ways, and writes the program with
+Fanuc G06.2 groups; everything else is copied. Prints chains, blocks and bytes
+before/after, the largest deviation and the fit time; with --compare also what the
+user gains on vcnc's controller: cycle time and feed fluctuation of both programs
+(the figures of `vcnc compare IN OUT`).
 """
 from __future__ import annotations
 
@@ -18,15 +21,15 @@ def format_report(rep, tol_mm: float) -> str:
     ratio_blocks = rep.blocks_before / max(rep.blocks_after, 1)
     ratio_bytes = rep.bytes_before / max(rep.bytes_after, 1)
     lines = [
-        f"tolerance        {tol_mm * 1e3:.3f} um",
-        f"G01 runs         {rep.runs} ({rep.short_runs} too short to fit, kept as G01)",
-        f"G06.2 groups     {rep.groups} replacing {rep.moves_replaced} G01 moves",
-        f"kept as G01      {len(rep.kept_g01)} pieces (no fit within tolerance that saves blocks)",
+        f"tolerance        {tol_mm * 1e3:.3f} um (both ways, on the curves as written)",
+        f"chains           {rep.chains} (G1/G2/G3 moves without a break; corners do not break them)",
+        f"G06.2 groups     {rep.groups} replacing {rep.moves_replaced} moves;"
+        f" {rep.sharp_corners} corners kept sharp inside them",
+        f"kept as written  {len(rep.kept_g01)} pieces (no group saves blocks there)",
         f"blocks           {rep.blocks_before} -> {rep.blocks_after}  ({ratio_blocks:.2f}x fewer;"
-        f" no conversion of these runs can go below {rep.blocks_bound}:"
-        f" {rep.blocks_before / max(rep.blocks_bound, 1):.2f}x)",
+        " G06.2 counted as one block per control point plus its closing knot blocks)",
         f"bytes            {rep.bytes_before} -> {rep.bytes_after}  ({ratio_bytes:.2f}x fewer)",
-        f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um (checked on the curves as written)",
+        f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um",
         f"fit time         {rep.fit_time_s:.2f} s",
     ]
     for line, why in rep.kept_g01[:10]:
@@ -47,9 +50,15 @@ def format_report(rep, tol_mm: float) -> str:
               help="A turn sharper than this between two moves ends a run.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None,
               help="Worker processes for the fits  [default: one per core].")
-def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None) -> None:
+@click.option("--compare", "gains", is_flag=True,
+              help="Also run both programs in vcnc's controller and print cycle time and feed fluctuation.")
+@click.option("--machine", type=INPUT_FILE, default=None,
+              help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
+def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None, gains: bool,
+            machine: str | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
+    from ipo.config import ConfigError, default_config, load_config
     from ipo.fit.convert import convert_text
 
     if not tol_mm > 0:
@@ -58,10 +67,17 @@ def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, j
         raise click.BadParameter(f"must be 1..5 (G06.2 order 2..6), got {degree}", param_hint="--degree")
     if not 0 <= corner_deg <= 180:
         raise click.BadParameter(f"must be 0..180, got {corner_deg}", param_hint="--corner-deg")
+    try:
+        config = default_config() if machine is None else load_config(machine)
+    except ConfigError as err:
+        raise click.ClickException(f"machine file {machine}: {err}") from None
+    accel = min(a.max_accel_mm_s2 for a in config.axes)
+    vmax = min(a.max_velocity_mm_s for a in config.axes)
     with open(src, "rb") as f:
         text = f.read().decode("utf-8", "replace")
     try:
-        result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs)
+        result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
+                                      accel_mm_s2=accel, max_feed_mm_s=vmax)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)
@@ -69,3 +85,8 @@ def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, j
         f.write(result)
     click.echo(f"{src} -> {out}")
     click.echo(format_report(report, tol_mm))
+    if gains:
+        from machine.commands.compare import compare_programs, format_table
+
+        click.echo("\nwhat the fit changes on vcnc's controller (vcnc compare):")
+        click.echo(format_table(compare_programs(src, out, machine)))

@@ -1,0 +1,120 @@
+"""Chains: the stretches of a program that one fit may replace, and where they must stay sharp.
+
+A chain is a maximal sequence of feed moves (G1 lines and G2/G3 arcs) that follow
+each other without a gap, at one feed, under continuous path control (G64), with
+nothing else in between; a caller adds its own condition (`joinable`, e.g. adjacent
+source lines written as plain motion blocks). Corners do not end a chain: a fit
+rounds them within the tolerance or keeps them sharp inside the curve (a knot of
+multiplicity = degree). G61/G61.1 (exact stop) moves never join a chain: the
+program asks for every corner there to be kept.
+
+A corner is kept sharp where rounding it within the tolerance cannot be done at
+the feed the move is programmed at: the largest circular rounding that stays
+within tol of a corner that turns by theta has radius R = tol / (sec(theta/2) - 1)
+(the distance from the vertex to the arc is R (sec(theta/2) - 1)), and the
+centripetal acceleration v^2 / R must stay within the machine's a_max. A turn
+above `corner_deg` that fails this is sharp; smaller turns are always left to the
+fit (CAM polylines of a fillet turn a few degrees per vertex, and each is a
+point of a curve, not a corner).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ipr.entities import PLANE_AXES, Arc, Line
+
+DEFAULT_CORNER_DEG = 30.0
+ARC_SAG_FRACTION = 0.1  # arcs become chords within this fraction of the tolerance
+
+
+@dataclass(frozen=True, slots=True)
+class Chain:
+    """Moves in program order and their path as a polyline: `points[ends[i]]` is where move i ends
+    (`ends[-1] == len(points) - 1`, `points[0]` is the chain's start)."""
+
+    moves: tuple
+    points: np.ndarray  # (n, 3) mm
+    ends: np.ndarray  # (len(moves),) index of each move's end in points
+    sag_mm: float  # largest distance of an arc from its chords (0 without arcs)
+
+
+def _arc_points(arc: Arc, sag_mm: float) -> np.ndarray:
+    """Points on the arc after its start, the last one its end, chords within sag_mm."""
+    a, b, n = PLANE_AXES[arc.plane]
+    r = arc.radius_mm
+    sweep = arc.sweep_rad
+    step = 2.0 * np.arccos(max(0.0, 1.0 - sag_mm / r)) if r > sag_mm else np.pi / 2
+    k = max(2, int(np.ceil(abs(sweep) / max(step, 1e-6))))
+    t = np.arange(1, k + 1) / k
+    a0 = np.arctan2(arc.start[b] - arc.center[b], arc.start[a] - arc.center[a])
+    out = np.empty((k, 3))
+    out[:, a] = arc.center[a] + r * np.cos(a0 + sweep * t)
+    out[:, b] = arc.center[b] + r * np.sin(a0 + sweep * t)
+    out[:, n] = arc.start[n] + (arc.end[n] - arc.start[n]) * t
+    out[-1] = arc.end
+    return out
+
+
+def _path_of(moves: list, sag_mm: float) -> Chain:
+    pts = [np.array([moves[0].start], dtype=float)]
+    ends = []
+    count = 1
+    for m in moves:
+        p = _arc_points(m, sag_mm) if isinstance(m, Arc) else np.array([m.end], dtype=float)
+        pts.append(p)
+        count += len(p)
+        ends.append(count - 1)
+    has_arc = any(isinstance(m, Arc) for m in moves)
+    return Chain(tuple(moves), np.vstack(pts), np.array(ends), sag_mm if has_arc else 0.0)
+
+
+def _continues(a, b) -> bool:
+    return (b.start == a.end and b.feed_mm_s == a.feed_mm_s and b.path == a.path
+            and not b.path.exact_stop and not (isinstance(b, Arc) and b.turns))
+
+
+def split_chains(entities: Iterable, tol_mm: float,
+                 joinable: Callable[[object, object], bool] | None = None) -> list[Chain]:
+    """Every chain of two moves or more, in program order; zero-length moves end a chain."""
+    runs: list[list] = []
+    current: list = []
+    for e in entities:
+        movable = isinstance(e, (Line, Arc)) and not e.path.exact_stop and e.start != e.end
+        if not movable or (isinstance(e, Arc) and e.turns):
+            current = []
+            continue
+        if current and _continues(current[-1], e) and (joinable is None or joinable(current[-1], e)):
+            current.append(e)
+        else:
+            current = [e]
+            runs.append(current)
+    sag = ARC_SAG_FRACTION * tol_mm
+    return [_path_of(r, sag) for r in runs if len(r) >= 2]
+
+
+def turn_rad(points: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Turning angle of the polyline at the vertices `at` (interior indices)."""
+    d_in = points[at] - points[at - 1]
+    d_out = points[at + 1] - points[at]
+    n = np.linalg.norm(d_in, axis=1) * np.linalg.norm(d_out, axis=1)
+    c = np.einsum("ij,ij->i", d_in, d_out) / np.where(n > 0, n, 1.0)
+    return np.where(n > 0, np.arccos(np.clip(c, -1.0, 1.0)), np.pi)
+
+
+def rounding_radius_mm(turn: np.ndarray, tol_mm: float) -> np.ndarray:
+    """The largest circular rounding of a corner turning by `turn` that stays within tol_mm of it."""
+    excess = 1.0 / np.cos(np.minimum(turn, np.pi - 1e-9) / 2.0) - 1.0
+    return np.where(excess > 0, tol_mm / np.maximum(excess, 1e-300), np.inf)
+
+
+def sharp_vertices(chain: Chain, tol_mm: float, accel_mm_s2: float, max_feed_mm_s: float,
+                   corner_deg: float = DEFAULT_CORNER_DEG) -> np.ndarray:
+    """Indices into chain.points of the move ends that stay sharp corners (see the module docstring)."""
+    at = chain.ends[:-1]
+    turn = turn_rad(chain.points, at)
+    feed = min(chain.moves[0].feed_mm_s, max_feed_mm_s)
+    too_fast = feed**2 > accel_mm_s2 * rounding_radius_mm(turn, tol_mm)
+    return at[(turn > np.radians(corner_deg)) & too_fast]

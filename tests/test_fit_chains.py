@@ -1,0 +1,193 @@
+"""`vcnc fit` through corners (issue 23): chains of G1/G2/G3 moves become G06.2 groups that round
+what can be rounded, keep sharp corners exactly, leave G61 alone, and stay within the tolerance both
+ways. The written file is checked with scipy's BSpline (rational: the homogeneous curve divided by its
+weight) and brute-force distances to the original path, never with the fit's own evaluator."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline
+
+from ipr import parse_text
+from ipr.entities import Arc, Line, Nurbs
+from ipo.fit.chains import rounding_radius_mm
+from ipo.fit.convert import convert_text, count_blocks, rounding_bound_mm
+
+CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc"
+
+
+def _scipy_points(nb: Nurbs, per_span: int = 200) -> np.ndarray:
+    """The written NURBS evaluated by scipy: C(u) = sum N_i w_i P_i / sum N_i w_i."""
+    hom = np.c_[nb.points * nb.weights[:, None], nb.weights]
+    spl = BSpline(np.asarray(nb.knots), hom, nb.degree)
+    u = np.unique(np.concatenate([np.linspace(a, b, per_span) for a, b in zip(nb.knots[:-1], nb.knots[1:]) if b > a]))
+    h = spl(u)
+    return h[:, :3] / h[:, 3:]
+
+
+def _arc_points(a: Arc, n: int = 400) -> np.ndarray:
+    from ipr.entities import PLANE_AXES
+    i, j, k = PLANE_AXES[a.plane]
+    t = np.linspace(0.0, 1.0, n)
+    a0 = np.arctan2(a.start[j] - a.center[j], a.start[i] - a.center[i])
+    out = np.empty((n, 3))
+    out[:, i] = a.center[i] + a.radius_mm * np.cos(a0 + a.sweep_rad * t)
+    out[:, j] = a.center[j] + a.radius_mm * np.sin(a0 + a.sweep_rad * t)
+    out[:, k] = a.start[k] + (a.end[k] - a.start[k]) * t
+    return out
+
+
+def _path(entities) -> np.ndarray:
+    """Dense points along every feed move (lines as their two ends: distances go to segments)."""
+    pts = []
+    for e in entities:
+        if isinstance(e, Line):
+            pts.append(np.array([e.start, e.end]))
+        elif isinstance(e, Arc):
+            pts.append(_arc_points(e))
+        elif isinstance(e, Nurbs):
+            pts.append(_scipy_points(e))
+    return np.vstack(pts)
+
+
+def _to_polyline(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Brute force: each point's distance to every segment of poly, the smallest."""
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    len2 = np.maximum(np.einsum("sd,sd->s", ab, ab), 1e-300)
+    out = []
+    for chunk in np.array_split(p, max(1, len(p) // 200)):
+        t = np.clip(np.einsum("psd,sd->ps", chunk[:, None] - a[None], ab) / len2, 0, 1)
+        out.append(np.linalg.norm(chunk[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1))
+    return np.concatenate(out)
+
+
+def _densified(poly: np.ndarray, step_mm: float) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    parts = np.maximum(np.ceil(seg / step_mm).astype(int), 1)
+    t = np.concatenate([np.arange(k) / k for k in parts])
+    owner = np.repeat(np.arange(len(seg)), parts)
+    return np.vstack([poly[owner] + t[:, None] * (poly[owner + 1] - poly[owner]), poly[-1:]])
+
+
+def _both_ways(before, after) -> float:
+    """Largest distance original path -> written path and written path -> original path (feed moves)."""
+    feed = (Line, Arc, Nurbs)
+    a = _path([e for e in before if isinstance(e, feed)])
+    b = _path([e for e in after if isinstance(e, feed)])
+    # the written curves are sampled: a point of the original path between two samples is at most
+    # half their spacing further from the curve than from the nearer sample's chord; the spacing is small
+    forward = _to_polyline(_densified(a, 0.005), b)
+    backward = _to_polyline(b, a)
+    return float(max(forward.max(), backward.max()))
+
+
+def _random_corner_program(seed: int, n_pieces: int = 24) -> tuple[str, list[tuple[np.ndarray, float]]]:
+    """A planar path of smooth stretches (polylined arcs of random radius) meeting at corners that turn
+    by every angle from 0 to 170 degrees, written to 4 decimals; and each corner's vertex and turn."""
+    rng = np.random.default_rng(seed)
+    p = np.zeros(2)
+    heading = 0.0
+    pts = [p.copy()]
+    corners = []
+    turns = np.linspace(0.0, np.radians(170.0), n_pieces)
+    rng.shuffle(turns)
+    for turn in turns:
+        heading += turn * rng.choice([-1.0, 1.0])
+        if pts:
+            corners.append((np.array([p[0], p[1], 0.0]), float(turn)))
+        radius = rng.uniform(3.0, 30.0) * rng.choice([-1.0, 1.0])
+        length = rng.uniform(2.0, 8.0)
+        n = int(rng.integers(6, 30))
+        for _ in range(n):
+            heading += length / n / radius
+            p = p + length / n * np.array([np.cos(heading), np.sin(heading)])
+            pts.append(p.copy())
+    words = [f"X{x:.4f} Y{y:.4f}" for x, y in pts]
+    text = "\n".join(["G21 G90 G17 G64", "G0 X0 Y0 Z0", f"G1 {words[1]} F1200", *words[2:], "M2", ""])
+    return text, corners[1:]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_corners_within_tolerance_both_ways_and_sharp_ones_exact(seed):
+    tol = 0.01
+    src, corners = _random_corner_program(seed)
+    out, rep = convert_text(src, tol, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    assert any(isinstance(e, Nurbs) for e in after)
+    assert rep.blocks_after < rep.blocks_before / 2
+    assert rep.blocks_after == count_blocks(out)
+    dev = _both_ways(before, after)
+    assert dev <= tol * 1.001, dev
+    assert rep.max_deviation_mm <= tol
+    # corners that must stay sharp (a rounding within tol would be too tight for F1200 at 1000 mm/s^2)
+    written = _path([e for e in after if isinstance(e, (Line, Nurbs))])
+    slack = rounding_bound_mm(3, 1.0) + 1e-6
+    sharp = [(v, t) for v, t in corners if t > np.radians(30.0)
+             and (1200 / 60) ** 2 > 1000.0 * rounding_radius_mm(np.array(t), 0.00913)]
+    assert sharp
+    for vertex, _ in sharp:
+        # the curve passes through the vertex (a control point of a knot of multiplicity p), up to
+        # the rounding of the written control point
+        assert np.min(np.linalg.norm(written - vertex, axis=1)) <= slack
+
+
+def test_an_arc_inside_a_smooth_path_joins_the_group():
+    """A circle R20 written as G1 chords, then one G3 quarter of the same circle, then chords again:
+    the chain runs through the arc and one group replaces all of it, within tolerance of the arc."""
+    tol = 0.01
+    r = 20.0
+
+    def chords(a0, a1, n):
+        return [f"X{r * np.cos(t):.4f} Y{r * np.sin(t):.4f}" for t in np.linspace(a0, a1, n + 1)[1:]]
+
+    q = np.pi / 2
+    first = chords(0, q, 40)
+    lines = ["G21 G90 G17 G64", f"G0 X{r:.4f} Y0 Z0", f"G1 {first[0]} F1500", *first[1:],
+             f"G3 X{-r:.4f} Y0 I0 J{-r:.4f}", *chords(2 * q, 3 * q, 40)]
+    lines[43] = "G1 " + lines[43]
+    src = "\n".join(lines + ["M2", ""])
+    out, rep = convert_text(src, tol, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    assert any(isinstance(e, Arc) for e in before)
+    assert not any(isinstance(e, Arc) for e in after), "the arc is inside the group"
+    assert _both_ways(before, after) <= tol * 1.001
+    assert rep.groups == 1 and rep.blocks_after < rep.blocks_before / 4
+
+
+def test_g61_region_is_not_rounded():
+    zig = [f"X{0.5 * i:.4f} Y{0.2 * np.sin(0.3 * i):.4f}" for i in range(1, 80)]
+    src = "\n".join(["G21 G90 G17", "G0 X0 Y0 Z0", "G61", "G1 X0.1 Y0 F1000", *zig, "G64",
+                     *[f"X{40 + 0.5 * i:.4f} Y{0.2 * np.sin(0.3 * i):.4f}" for i in range(80)], "M2", ""])
+    out, rep = convert_text(src, 0.01, jobs=1)
+    src_lines, out_lines = src.split("\n"), out.split("\n")
+    g61 = src_lines[2:src_lines.index("G64")]
+    assert out_lines[2:2 + len(g61)] == g61, "every G61 block is kept as written"
+    assert rep.groups >= 1 and "G06.2" in "\n".join(out_lines[2 + len(g61):])
+
+
+def test_fitted_program_runs_without_limit_violations(tmp_path):
+    from ipo.config import default_config
+    from machine.controller import Controller
+
+    src, _ = _random_corner_program(4, n_pieces=10)
+    out, rep = convert_text(src, 0.01, jobs=1)
+    path = tmp_path / "fitted.nc"
+    path.write_text(out)
+    ctl = Controller(default_config())
+    result = ctl.run(ctl.check(path))
+    assert result.state == "completed"
+    assert result.limit_violations == 0, result.limit_violations_by_kind
+
+
+@pytest.mark.parametrize("name", ["g1_lhchips4.ngc"])
+def test_corpus_chains_within_tolerance(name):
+    path = CORPUS / name
+    if not path.exists():
+        pytest.skip(f"{path} is absent (../shared/corpus is not part of the repository)")
+    text = "\n".join(path.read_text().split("\n")[:1200]) + "\nM2\n"
+    out, rep = convert_text(text, 0.01, jobs=1)
+    before, after = parse_text(text).entities, parse_text(out).entities
+    assert rep.groups >= 1
+    assert _both_ways(before, after) <= 0.01 * 1.001
