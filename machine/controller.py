@@ -3,7 +3,7 @@
 `check` interprets the whole file with every error collected (ipr, all_errors) and
 checks the travel limits of the whole path; any problem refuses the run with every
 reason and its line, before a single period moves. `run` streams the program
-through the feed stage and interpolators (ipo.feed.plan_periods) into the
+through the feed stage and interpolators (ipo.feed.planner.plan_periods) into the
 simulated drive, either as fast as possible or paced in real time (machine.realtime),
 and handles the program's events: dwell (standing-still periods from the feed stage),
 M0 and M1 (pause; the operator resumes or stops), M2/M30 (end), messages, spindle,
@@ -19,8 +19,8 @@ from typing import Callable
 
 import numpy as np
 
-from ipo.nurbs_split import planning_problem
-from ipo.period import PeriodBatch
+from ipo.feed.split import planning_problem
+from ipo.contracts import PeriodBatch
 from ipr import Setup, parse_file
 from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
@@ -98,7 +98,7 @@ class Controller:
         self.on_program_stop = on_program_stop
         self.on_event = on_event
         self.limits = DriveLimits.from_config(config)
-        self.planner = planner  # plan_periods's signature; None = ipo.feed.plan_periods
+        self.planner = planner  # plan_periods's signature; None = ipo.feed.planner.plan_periods
         self.check_s = 0.0
 
     def check(self, path: str | Path) -> Program:
@@ -133,7 +133,7 @@ class Controller:
     def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
         if self.planner is None:
-            from ipo.feed import plan_periods
+            from ipo.feed.planner import plan_periods
             self.planner = plan_periods
         drive = self.make_drive(program)
         drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time

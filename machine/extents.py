@@ -14,7 +14,7 @@ from itertools import chain
 
 import numpy as np
 
-from ipo.nurbs import curve_points
+from ipo.nurbs.kernel import curve_points
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 SAMPLES_PER_SPAN = 256

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from ipo.period import PeriodBatch
+from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Line, Nurbs, Rapid
 from machine.drive import Drive, DriveLimits
 from machine.extents import arc_extent, nurbs_extent, travel_violations
@@ -158,7 +158,7 @@ def test_late_production_counts_deadline_misses():
     assert 0 < player.deadline_misses <= drive.stats.periods
 
 
-# --- whole runs against a synthetic planner (the contract of ipo.feed.plan_periods) ---
+# --- whole runs against a synthetic planner (the contract of ipo.feed.planner.plan_periods) ---
 
 def fake_planner(items):
     def planner(entities, config, *, method, feed_override, start_mm):

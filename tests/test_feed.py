@@ -9,9 +9,9 @@ import pytest
 from scipy.interpolate import BSpline
 
 from ipo.config import Finishing, default_config
-from ipo.feed import ACCEL_USE, FeedPlanner, plan_periods
+from ipo.feed.planner import ACCEL_USE, FeedPlanner, plan_periods
 from ipr import iter_entities, parse_text
-from ipo.period import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
+from ipo.contracts import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
 from ipr.entities import (EXACT_STOP, MOTION_TYPES, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop)
 
@@ -293,7 +293,7 @@ def test_corner_blend_next_to_an_arc_stays_within_p():
 
 
 def test_moving_average_keeps_the_distance_and_ramps():
-    from ipo.scurve import MovingAverage
+    from ipo.feed.scurve import MovingAverage
 
     f = MovingAverage.for_limits(np.array([1000.0] * 3), np.array([1e5] * 3), 1e-3)
     assert f.m == 10

@@ -36,7 +36,7 @@ TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness m
 def _run(path: Path, config):
     from ipr.entities import Arc, Line, Nurbs, Spindle
     from machine.controller import Controller
-    from machine.convert import count_blocks
+    from ipo.fit.convert import count_blocks
     from machine.trace import MemoryTrace
 
     sink = MemoryTrace({})
@@ -84,7 +84,7 @@ def _feed_figures(run: dict) -> dict:
 
 
 def _roughness(run: dict, config) -> dict:
-    from ipo.roughness import inclination_rad, rmax_mm
+    from ipo.feed.roughness import inclination_rad, rmax_mm
 
     fin = config.finishing
     if fin is None:

@@ -48,7 +48,7 @@ def format_report(rep, tol_mm: float) -> str:
 def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
-    from machine.convert import convert_text
+    from ipo.fit.convert import convert_text
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")

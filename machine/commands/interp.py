@@ -32,7 +32,7 @@ import numpy as np
 def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_evals, du, pulse, blu_um, out,
             as_json):
     """Interpolate every motion entity of FILE at a constant chord D (no feed planning)."""
-    from ipo.chord_study import pulse_study, study
+    from ipo.interp.chord_study import pulse_study, study
     from ipr import parse_file
     from ipr.entities import GCodeError
 

@@ -23,7 +23,7 @@ def _arc_length_mm(arc) -> float:
 
 
 def _nurbs_length_mm(nurbs) -> float:
-    from ipo.nurbs import arc_length
+    from ipo.nurbs.kernel import arc_length
 
     return arc_length(nurbs.degree, nurbs.knots, nurbs.weights, nurbs.points, rel_tol=1e-6)
 

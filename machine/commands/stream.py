@@ -43,7 +43,7 @@ def _dry_run(protocol, program, config, resume_from) -> None:
     if protocol == "increments":
         import numpy as np
 
-        from ipo.feed import plan_periods
+        from ipo.feed.planner import plan_periods
         from machine.increments import frames as F
         from machine.increments.link import frame_chunks
 
@@ -143,7 +143,7 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
 def _stream_increments(port, baud, program, config) -> None:
     from rich.console import Console
 
-    from ipo.feed import plan_periods
+    from ipo.feed.planner import plan_periods
     from machine.increments.link import IncrementLink, IncrementLinkError
 
     console = Console(stderr=True)

@@ -28,10 +28,10 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
     """Fit digitised cross-sections, skin them into a rational surface and write IGES."""
     import numpy as np
 
-    from ipo.iges import RationalCurve, write_iges
-    from ipo.section_fit import fit_sections
-    from ipo.sections import SectionsError, orient_like_first, read_sections
-    from ipo.skinning import deviation_from_points, skin_patches
+    from ipo.surface.iges import RationalCurve, write_iges
+    from ipo.surface.section_fit import fit_sections
+    from ipo.surface.sections import SectionsError, orient_like_first, read_sections
+    from ipo.surface.skinning import deviation_from_points, skin_patches
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")

@@ -27,8 +27,8 @@ import click
               help="Parameter direction of the passes (u: along the sections).")
 def command(surface, out, ball_mm, pick_mm, feed_mm_min, spindle_rpm, tol_mm, along) -> None:
     """Write ball-end finishing passes over an IGES surface as G06.2 groups."""
-    from ipo.iges import IgesError, read_surfaces
-    from ipo.toolpath import ToolpathSettings, plan_passes, program_text
+    from ipo.surface.iges import IgesError, read_surfaces
+    from ipo.surface.toolpath import ToolpathSettings, plan_passes, program_text
 
     settings = ToolpathSettings(ball_mm, pick_mm, tol_mm, feed_mm_min, spindle_rpm, along)
     try:
