@@ -48,7 +48,7 @@ _WHY_NOT = {
     410: "cutter radius compensation", 420: "cutter radius compensation",
     411: "cutter radius compensation", 421: "cutter radius compensation", 171: "UV plane", 181: "UW plane", 191: "VW plane",
 }
-LETTERS = frozenset("GMXYZIJKRFPQSTHLNOD")
+LETTERS = frozenset("GMXYZIJKRFPQSTHLNODE")
 # the item-7 constructs: axes a 3-axis machine does not have
 ABSENT_AXES = frozenset("ABCUVW")
 # non-modal codes that take the axis words (no motion may share the block)
@@ -122,14 +122,16 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
         return BlockError("E-NO-MOTION-MODE", f"axis word {letter} but {what}", raise_at)
     m = motion if moving else None
     cycle = m in CYCLES
-    io = mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
+    io = (mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
+          or mc.get("spindle") == 190)   # M19 R (angle) Q (timeout) P (direction)
     users = {
         "I": m in (20, 30, 50, 51), "J": m in (20, 30, 50, 51), "K": m in (20, 30, 62),
-        "R": m in (20, 30, 62) or cycle or nonmodal == 100,
+        "R": m in (20, 30, 62) or cycle or nonmodal == 100 or mc.get("spindle") == 190,
+        "E": mc.get("io") is not None or mc.get("user") is not None,
         "P": (nonmodal in (40, 100) or g.get("path") == 640 or m in (20, 30, 50, 52, 62)
               or m in DWELL_CYCLES or io),
         "Q": g.get("path") == 640 or m in (50, 62, 730, 830) or io or mc.get("toolchange") == 610,
-        "L": m == 52 or cycle or nonmodal == 100,
+        "L": m == 52 or cycle or nonmodal == 100 or mc.get("io") == 660,
         "H": g.get("tool_length") in (430, 432),
         "D": g.get("comp") in (410, 420, 411, 421) or g.get("spindle_mode") == 960,
     }

@@ -53,9 +53,9 @@ class _Emitter:
         p[self.a], p[self.b], p[self.n] = aa * u, bb * u, cc * u
         return to_machine(self.st, p)
 
-    def traverse(self, aa, bb, cc) -> None:
+    def traverse(self, aa, bb, cc, path=EXACT_STOP) -> None:
         end = self._point(aa, bb, cc)
-        self.out.append(Rapid(self.line, self.pos, end, EXACT_STOP))
+        self.out.append(Rapid(self.line, self.pos, end, path))
         self.pos = end
 
     def feed_to(self, aa, bb, cc) -> None:
@@ -145,10 +145,10 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
         raise BlockError("E-CYCLE", f"{name}: the R plane ({r:g}) is below the bottom ({cc:g})",
                          spec.index.get("R", where))
     em = _Emitter(st, line, out, st.plane, move_feed_mm_s(st, spec, vals, where, st.pos, st.pos))
-    # 4. below the R plane: straight up to it first
+    # 4. below the R plane: straight up to it first (before LinuxCNC switches to exact stop)
     initial = old_cc
     if old_cc < r:
-        em.traverse(here[a], here[b], r)
+        em.traverse(here[a], here[b], r, st.path)
         old_cc = current_cc = r
     clear = r if st.retract_r else old_cc
     # 5. CYCLE_MACRO: L repeats, each positioned over its hole, then the cycle's own moves

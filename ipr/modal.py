@@ -48,7 +48,7 @@ class Setup:
                    dialect=getattr(config, "dialect", "linuxcnc"))
 
     def work_offset(self, code10: int) -> tuple[float, float, float]:
-        name = f"G{code10 // 10}"
+        name = f"G{code10 // 10}" + (f".{code10 % 10}" if code10 % 10 else "")
         return tuple(float(v) for v in self.work_offsets_mm.get(name, ZERO3))
 
 

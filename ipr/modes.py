@@ -5,8 +5,8 @@ IPR hands the IPO a feed in mm/s for every move, so the modes end here:
 - G93 (inverse time): F is 1/minutes for this move, and every feed move must carry F; the
   move's feed is its length / (60 / F) (rs274: SET_FEED_RATE(F * length)).
 - G95 (units per revolution): F * unit * S / 60 with the programmed spindle speed S.
-Changing the mode sets the feed rate to zero, as LinuxCNC does (an F in the same block
-then applies). G96 (constant surface speed, S in m/min or ft/min, D max rpm) and G97 are
+A G93/G94/G95 word sets the feed rate to zero, even the active mode's, as LinuxCNC does (an F
+in the same block then applies). G96 (constant surface speed, S in m/min or ft/min, D max rpm) and G97 are
 carried as Auxiliary events: the spindle model does not simulate CSS.
 """
 from __future__ import annotations
@@ -18,9 +18,8 @@ from ipr.errors import BlockError
 
 
 def set_feed_mode(st, spec, code: int) -> None:
-    if code != st.feed_mode:
-        st.feed_mode = code
-        st.feed_mm_s = 0.0
+    st.feed_mode = code
+    st.feed_mm_s = 0.0   # LinuxCNC's convert_feed_mode: every G93/G94/G95, even the active one
 
 
 def set_spindle_mode(st, spec, vals, out: list, line: int, code: int) -> None:
