@@ -53,7 +53,7 @@ class RunResult:
     position_mm: list[float]
     cycle_time_s: float
     periods: int
-    blocks: int
+    motions: int  # motion entities (a NURBS group of many blocks is one); compare counts blocks
     path_length_mm: float
     max_axis_velocity_mm_s: list[float]
     max_axis_accel_mm_s2: list[float]
@@ -204,7 +204,7 @@ class Controller:
         return RunResult(
             file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
             cycle_time_s=sim, periods=st.periods,
-            blocks=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
+            motions=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
             path_length_mm=st.path_length_mm,
             max_axis_velocity_mm_s=[round(float(v), 4) for v in st.max_velocity_mm_s],
             max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],

@@ -201,7 +201,7 @@ def test_run_handles_messages_stops_and_program_end():
     assert result.cycle_time_s == pytest.approx(0.4)
     assert result.path_length_mm == pytest.approx(math.hypot(20, 10), abs=1e-3)
     assert result.deadline_misses is None and result.max_contour_error_um is None
-    assert result.summary()["blocks"] == 1
+    assert result.summary()["motions"] == 1
 
 
 def test_answering_stop_at_m0_ends_the_run_there():

@@ -18,7 +18,8 @@ from conftest import corpus_files, require_corpus
 import ipr
 from ipr.entities import MOTION_TYPES, Nurbs
 
-VCNC = [sys.executable, "-c", "from machine.cli import main; main()"]  # this interpreter's vcnc, not PATH's
+# the CLI of the interpreter running the tests, never a `vcnc` that happens to be on PATH
+VCNC = [sys.executable, "-m", "machine.cli"]
 
 # First block of a NURBS group: G5.2, or a G6.2 that is not one of the closing knot-only blocks.
 _GROUP_START = re.compile(r"^\s*G0?(5\.2|6\.2(?!\s*K))", re.IGNORECASE)

@@ -215,7 +215,8 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     # a blend may take half of each move, and on an arc no more than a tenth of its radius
     reach = np.where(is_arc, np.minimum(0.5 * length, 0.1 * arcs.radius), 0.5 * length)
     avail = np.minimum(reach[:-1], reach[1:])
-    r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
+    with np.errstate(divide="ignore"):  # a turn so slight that sec = 1 in floats: any R is within P
+        r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
     g2, d_g2 = np.zeros_like(blend), np.zeros(n - 1)
     if g2_limits is not None:

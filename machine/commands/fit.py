@@ -11,6 +11,8 @@ import sys
 
 import click
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 def format_report(rep, tol_mm: float) -> str:
     ratio_blocks = rep.blocks_before / max(rep.blocks_after, 1)
@@ -35,8 +37,8 @@ def format_report(rep, tol_mm: float) -> str:
 
 
 @click.command("fit")
-@click.argument("src", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False),
+@click.argument("src", type=INPUT_FILE)
+@click.option("-o", "--output", "out", required=True, type=OutputPath(),
               help="Where to write the converted program.")
 @click.option("--tol-mm", "tol_mm", required=True, type=float,
               help="Largest distance allowed between the curve and the G01 path, mm.")

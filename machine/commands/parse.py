@@ -12,6 +12,8 @@ import sys
 
 import click
 
+from machine.commands import INPUT_FILE
+
 _KINDS = {"Rapid": "rapid", "Line": "line", "Arc": "arc", "Nurbs": "nurbs", "Dwell": "dwell"}
 
 
@@ -114,10 +116,10 @@ def _setup(machine_file: str | None):
 
 
 @click.command("parse")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.argument("file", type=INPUT_FILE)
 @click.option("--json", "as_json", is_flag=True, help="print the entities as a JSON array")
 @click.option("--all-errors", is_flag=True, help="report every error, not just the first")
-@click.option("--machine", "machine_file", type=click.Path(dir_okay=False),
+@click.option("--machine", "machine_file", type=INPUT_FILE,
               help="machine TOML for work offsets and tool lengths (default: built in)")
 def command(file: str, as_json: bool, all_errors: bool, machine_file: str | None) -> None:
     """Check FILE and print its motion entities (or a summary)."""

@@ -12,10 +12,12 @@ import time
 
 import click
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 @click.command("surface")
-@click.argument("points", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False), help="IGES file to write.")
+@click.argument("points", type=INPUT_FILE)
+@click.option("-o", "--output", "out", required=True, type=OutputPath((".igs", ".iges")), help="IGES file to write.")
 @click.option("--tol-mm", "tol_mm", default=0.05, show_default=True, type=float,
               help="Largest point error allowed per section; sets the control-point count.")
 @click.option("--order", default=4, show_default=True, type=int, help="B-spline order k (degree k - 1).")
