@@ -48,7 +48,6 @@ _WHY_NOT = {
     410: "cutter radius compensation", 420: "cutter radius compensation",
     411: "cutter radius compensation", 421: "cutter radius compensation", 171: "UV plane", 181: "UW plane", 191: "VW plane",
 }
-LETTERS = frozenset("GMXYZIJKRFPQSTHLNODE")
 # the item-7 constructs: axes a 3-axis machine does not have
 ABSENT_AXES = frozenset("ABCUVW")
 # non-modal codes that take the axis words (no motion may share the block)
@@ -157,11 +156,9 @@ def analyse(signature: tuple) -> BlockSpec | BlockError:
     where: dict[str, int] = {}
     index: dict[str, int] = {}
     for i, (letter, value) in enumerate(signature):
-        if letter not in LETTERS:
-            if letter in ABSENT_AXES:
-                return BlockError("E-AXIS-ABSENT", f"axis {letter}: this machine has only X, Y and Z "
-                                  "(rotary and parallel axes are not simulated)", i)
-            return BlockError("E-WORD-UNSUPPORTED", f"unsupported word {letter}", i)
+        if letter in ABSENT_AXES:   # every other letter of the grammar is read
+            return BlockError("E-AXIS-ABSENT", f"axis {letter}: this machine has only X, Y and Z "
+                              "(rotary and parallel axes are not simulated)", i)
         if letter in "GM":
             code = round(value * 10)
             table = G_GROUPS if letter == "G" else M_GROUPS

@@ -7,7 +7,6 @@ same table with examples.
 | code                 | meaning                                                                  |
 |----------------------|--------------------------------------------------------------------------|
 | E-SYNTAX             | the line does not follow the grammar (ipr/gcode.lark)                    |
-| E-WORD-UNSUPPORTED   | a letter vcnc does not read (A, B, C, D, E, U, V, W, ...)                |
 | E-GCODE-UNSUPPORTED  | a G-code vcnc does not implement (G41, G93, G28, G81, ...)               |
 | E-MCODE-UNSUPPORTED  | an M-code vcnc does not implement                                        |
 | E-WORD-REPEATED      | a letter other than G or M appears twice in one block                    |
@@ -59,7 +58,7 @@ Warnings and notices (severity "warning"/"notice", never stop a program):
 from __future__ import annotations
 
 CODES = (
-    "E-SYNTAX", "E-WORD-UNSUPPORTED", "E-GCODE-UNSUPPORTED", "E-MCODE-UNSUPPORTED",
+    "E-SYNTAX", "E-GCODE-UNSUPPORTED", "E-MCODE-UNSUPPORTED",
     "E-WORD-REPEATED", "E-MODAL-GROUP", "E-AXIS-CONFLICT", "E-WORD-UNUSED", "E-WORD-MISSING",
     "E-VALUE", "E-NO-MOTION-MODE", "E-FEED-ZERO", "E-G53", "E-PARAM", "E-EXPR",
     "E-ARC-FORMAT", "E-ARC-RADIUS", "E-ARC-R-FULL", "E-ARC-R-SMALL",

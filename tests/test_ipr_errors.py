@@ -12,7 +12,7 @@ CASES = [
     ("G1 X1 $", "E-SYNTAX", 1, 7),
     ("G0 X1\nG1 X[1+] F100", "E-SYNTAX", 2, 8),
     ("G0 X1\nG1 X2 Y", "E-SYNTAX", 2, 8),
-    ("G1 E1", "E-WORD-UNSUPPORTED", 1, 4),
+    ("G1 E1", "E-WORD-UNUSED", 1, 4),
     ("G1 A1", "E-AXIS-ABSENT", 1, 4),
     ("G0 X1\nM3 S100 G1 W2 F10", "E-AXIS-ABSENT", 2, 12),
     ("G0 X1\n  G41 X2", "E-GCODE-UNSUPPORTED", 2, 3),
