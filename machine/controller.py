@@ -21,6 +21,7 @@ import numpy as np
 
 from ipo.feed.split import planning_problem
 from ipo.contracts import PeriodBatch
+from ipo.errors import IpoError
 from ipr import Setup, parse_file
 from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
@@ -188,8 +189,9 @@ class Controller:
             state = "interrupted"
         except TravelLimitError as err:
             state, fault = "fault", str(err)
-        except ValueError as err:  # the planner refused a block the checks let through: stop, say why
-            state, fault = "fault", f"the planner stopped at line {drive.line}: {err}"
+        except IpoError as err:  # the planner refused a block the checks let through: stop, say why
+            state, fault = "fault", (f"the planner stopped at line {drive.line if err.line is None else err.line}: "
+                                     f"error[{err.code}]: {err.message}")
         finally:
             stream.close()
             if player is not None:

@@ -232,9 +232,17 @@ def test_a_travel_fault_during_the_run_is_reported_not_raised():
 
 
 def test_a_planner_refusal_during_the_run_is_a_fault_not_a_crash():
-    items = shifted(line_stream(10.0, size=50), 21)[:2] + [ValueError("line 21: something the checks missed")]
+    from ipo.errors import NURBS_PATH, IpoError
+    items = shifted(line_stream(10.0, size=50), 21)[:2] + [IpoError(NURBS_PATH, "something the checks missed", 23)]
     result = controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
-    assert result.state == "fault" and "something the checks missed" in result.fault and result.periods == 100
+    assert result.state == "fault" and result.periods == 100
+    assert result.fault == "the planner stopped at line 23: error[E-NURBS-PATH]: something the checks missed"
+
+
+def test_a_bug_in_the_planner_is_not_taken_for_a_refusal():
+    items = shifted(line_stream(10.0, size=50), 21)[:2] + [ValueError("an index out of range")]
+    with pytest.raises(ValueError, match="an index out of range"):
+        controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
 
 
 def test_a_nurbs_the_planner_cannot_walk_is_rejected_before_anything_moves(tmp_path):

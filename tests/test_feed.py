@@ -387,3 +387,11 @@ def test_nurbs_brakes_into_an_unblended_corner_at_the_end():
     a = A[0] * ACCEL_USE
     assert length / F + F / A[0] - 2 * T <= t_curve <= length / F + F / (2 * a) + F / a + 4 * T, t_curve
     assert_within_limits(out["pos_mm"], start)
+
+
+def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_its_code_and_line():
+    from ipo.errors import START, IpoError
+    with pytest.raises(IpoError) as info:
+        list(plan_periods([Line(3, (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 10.0)], default_config()))
+    assert (info.value.code, info.value.line) == (START, 3)
+    assert str(info.value) == "line 3: motion starts at [1.0, 0.0, 0.0] but the machine stands at [0.0, 0.0, 0.0]"

@@ -55,5 +55,7 @@ def test_isotropic_target_and_conventional_model():
 
 
 def test_unreachable_target_is_an_error():
-    with pytest.raises(ValueError, match="roughness target"):
+    from ipo.errors import ROUGHNESS_TARGET, IpoError
+    with pytest.raises(IpoError, match="roughness target") as info:
         rg.feed_per_tooth_mm(R, FP, 1e-7, np.radians(45))
+    assert info.value.code == ROUGHNESS_TARGET

@@ -30,6 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo.nurbs import kernel as nk
+from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
@@ -136,7 +137,7 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
     start, end, centre = np.array(e.start), np.array(e.end), np.array(e.center)
     r0 = e.radius_mm
     if not r0 > 0:
-        raise ValueError(f"line {e.line}: arc radius is zero (start point on the centre)")
+        raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", e.line)
     r1 = float(np.hypot(end[a] - centre[a], end[b] - centre[b]))
     sweep = e.sweep_rad
     theta = abs(sweep)

@@ -30,8 +30,9 @@ import numpy as np
 from ipo.feed import lookahead as la
 from ipo.config import METHODS, MachineConfig
 from ipo.feed.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, jerk_accel_scale, low_caps_to_stops,
-                        lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
+                             lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
 from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
+from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, centripetal_binds, period_reasons
 from ipo.feed.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
 from ipo.feed.roughness import cusp_height_mm
@@ -155,8 +156,8 @@ class FeedPlanner:
     def _check_start(self, e) -> None:
         pos = self._output.pos
         if np.max(np.abs(np.array(e.start) - pos)) > _START_TOL_MM:
-            raise ValueError(f"line {e.line}: motion starts at {list(e.start)} but the machine "
-                             f"stands at {pos.tolist()}")
+            raise IpoError(START, f"motion starts at {list(e.start)} but the machine stands at {pos.tolist()}",
+                           e.line)
 
     def _take_motion(self, e) -> None:
         """Arcs and NURBS, a NURBS as its parts between its corners (lines take the lean path in run)."""

@@ -14,6 +14,7 @@ import numpy as np
 
 from ipo.nurbs import kernel as nk
 from ipo.feed.blends.compiled import bezier_points_at, bezier_table
+from ipo.errors import NURBS_PATH, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS
 from ipo.feed.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces, frame
 
@@ -132,7 +133,7 @@ def _nurbs_frame(e, u: np.ndarray):
     d1, d2 = d[1], d[2]
     speed = np.linalg.norm(d1, axis=1)
     if np.any(speed <= 0):
-        raise ValueError(f"line {e.line}: NURBS has a vanishing derivative (a cusp or repeated points)")
+        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
     t = d1 / speed[:, None]
     kv = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (speed**2)[:, None]
     return speed, t, kv
@@ -151,7 +152,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
         *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
                                   MAX_TURN_RAD, MAX_SPACING_MM)
         if not ok:
-            raise ValueError(f"line {e.line}: NURBS has a vanishing derivative (a cusp or repeated points)")
+            raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
         return NurbsTable(*table)
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])

@@ -22,6 +22,7 @@ import dataclasses
 
 import numpy as np
 
+from ipo.errors import IpoError
 from ipo.feed.sampling import nurbs_table
 from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import Line, Nurbs
@@ -113,8 +114,7 @@ def planning_problem(e: Nurbs) -> str | None:
         for part in corner_parts(e):
             if isinstance(part, Nurbs):
                 nurbs_table(part)
-    except ValueError as err:
-        why, prefix = str(err), f"line {e.line}: "
-        return why[len(prefix):] if why.startswith(prefix) else why
+    except IpoError as err:
+        return err.message
     return None
 

@@ -22,6 +22,7 @@ from numba import njit
 
 from ipr.entities import PLANE_AXES, Arc, Line, Rapid
 from ipo.contracts import Steps
+from ipo.errors import ARC_RADIUS, NON_FINITE, IpoError
 
 # A first step shorter than lead_mm by less than this is float noise of the caller's
 # lead = step - carry, not an error.
@@ -105,7 +106,7 @@ class LineStepper(_ChunkStepper):
         start = tuple(map(float, entity.start))
         end = tuple(map(float, entity.end))
         if not all(map(isfinite, start + end)):
-            raise ValueError(f"line {entity.line}: non-finite start or end point")
+            raise IpoError(NON_FINITE, "non-finite start or end point", entity.line)
         delta = (end[0] - start[0], end[1] - start[1], end[2] - start[2])
         self.length_mm = hypot(*delta)
         inv = 1.0 / self.length_mm if self.length_mm > 0.0 else 0.0
@@ -249,12 +250,12 @@ class ArcStepper(_ChunkStepper):
         end = tuple(map(float, entity.end))
         centre = tuple(map(float, entity.center))
         if not all(map(isfinite, start + end + centre)):
-            raise ValueError(f"line {entity.line}: non-finite arc start, end or centre")
+            raise IpoError(NON_FINITE, "non-finite arc start, end or centre", entity.line)
         self._end = np.array(end)
         r0 = entity.radius_mm
         r1 = hypot(end[a] - centre[a], end[b] - centre[b])
         if not r0 > 0.0:
-            raise ValueError(f"line {entity.line}: arc radius is zero (start point on the centre)")
+            raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", entity.line)
         sweep = entity.sweep_rad
         theta = abs(sweep)
         self._g = np.array([

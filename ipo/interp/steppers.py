@@ -20,6 +20,7 @@ from ipo.interp.constant_du import constant_du_step
 from ipo.interp.line_arc import ArcStepper, LineStepper
 from ipo.nurbs.compiled import compile_curve, dist3, poly_derivs2
 from ipo.contracts import Steps
+from ipo.errors import NURBS_DATA, IpoError
 from ipo.interp.recursive import STARTUP_CAP, eq9, predict_ratio, recursive_step
 from ipo.interp.taylor import taylor_step
 from ipr.entities import Arc, Line, Nurbs, Rapid
@@ -126,25 +127,27 @@ def _check_curve(e: Nurbs) -> None:
     knots = np.asarray(e.knots, dtype=float)
     pts = np.asarray(e.points, dtype=float)
     w = np.asarray(e.weights, dtype=float)
-    where = f"NURBS at line {e.line}"
+    why = None
     if p < 1:
-        raise ValueError(f"{where}: degree must be >= 1, got {p}")
-    if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < p + 1:
-        raise ValueError(f"{where}: need at least {p + 1} control points of 3 coordinates")
-    if w.shape != (len(pts),) or not (np.isfinite(w).all() and (w > 0).all()):
-        raise ValueError(f"{where}: weights must be finite and > 0, one per control point")
-    if not np.isfinite(pts).all():
-        raise ValueError(f"{where}: control points must be finite")
-    if len(knots) != len(pts) + p + 1 or not np.isfinite(knots).all() or (np.diff(knots) < 0).any():
-        raise ValueError(f"{where}: need {len(pts) + p + 1} finite non-decreasing knots, got {len(knots)}")
-    if not ((knots[:p + 1] == knots[0]).all() and (knots[-p - 1:] == knots[-1]).all()):
-        raise ValueError(f"{where}: knot vector must be clamped (first and last knot repeated {p + 1} times)")
-    if not knots[-1] > knots[0]:
-        raise ValueError(f"{where}: knot vector has zero range")
-    _, mult = np.unique(knots[p + 1:-p - 1], return_counts=True)
-    if mult.size and mult.max() > p:
-        raise ValueError(f"{where}: an interior knot repeats {mult.max()} times; more than the degree {p} "
-                         "breaks the curve apart")
+        why = f"degree must be >= 1, got {p}"
+    elif pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < p + 1:
+        why = f"need at least {p + 1} control points of 3 coordinates"
+    elif w.shape != (len(pts),) or not (np.isfinite(w).all() and (w > 0).all()):
+        why = "weights must be finite and > 0, one per control point"
+    elif not np.isfinite(pts).all():
+        why = "control points must be finite"
+    elif len(knots) != len(pts) + p + 1 or not np.isfinite(knots).all() or (np.diff(knots) < 0).any():
+        why = f"need {len(pts) + p + 1} finite non-decreasing knots, got {len(knots)}"
+    elif not ((knots[:p + 1] == knots[0]).all() and (knots[-p - 1:] == knots[-1]).all()):
+        why = f"knot vector must be clamped (first and last knot repeated {p + 1} times)"
+    elif not knots[-1] > knots[0]:
+        why = "knot vector has zero range"
+    else:
+        _, mult = np.unique(knots[p + 1:-p - 1], return_counts=True)
+        if mult.size and mult.max() > p:
+            why = f"an interior knot repeats {mult.max()} times; more than the degree {p} breaks the curve apart"
+    if why is not None:
+        raise IpoError(NURBS_DATA, f"NURBS {why}", e.line)
 
 
 class NurbsStepper:

@@ -11,6 +11,7 @@ import dataclasses
 
 import numpy as np
 
+from ipo.errors import NURBS_CUT, IpoError
 from ipr.entities import Nurbs
 
 # a split parameter this close (relative to the knot range) to an existing knot is that knot:
@@ -50,7 +51,7 @@ def sub_curve(e: Nurbs, u0: float, u1: float) -> Nurbs:
     lo, hi = float(knots[0]), float(knots[-1])
     u0, u1 = _snapped(knots, u0), _snapped(knots, u1)
     if not lo <= u0 < u1 <= hi:
-        raise ValueError(f"line {e.line}: cannot cut a NURBS with knot range [{lo}, {hi}] to [{u0}, {u1}]")
+        raise IpoError(NURBS_CUT, f"cannot cut a NURBS with knot range [{lo}, {hi}] to [{u0}, {u1}]", e.line)
     w = np.asarray(e.weights, dtype=float)
     pw = np.column_stack([np.asarray(e.points, dtype=float) * w[:, None], w])
     if u1 < hi:

@@ -31,7 +31,7 @@ import numpy as np
 from ipo.fit.tolerance import FitSettings, fewest_ctrl
 from ipo.fit.rational import RationalFit, evaluate
 from ipo.surface.evaluation import (RationalSurface, nearest_distance, split_at_c0, surface_derivs, surface_points, swap_uv,
-                         unit_normals)
+                                    unit_normals)
 
 PLUNGE_FRACTION = 0.3  # plunge feed as a fraction of the cutting feed
 CLEARANCE_MM = 5.0  # safe height above the highest tool-centre point
