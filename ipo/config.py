@@ -119,6 +119,10 @@ class MachineConfig:
     g28_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)   # G28/G30 stored positions at start (machine)
     g30_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     user_mcodes: dict[int, str] = field(default_factory=dict)   # M100..M199 the machine has
+    # the interpreter's (ipr.Setup): subroutine file folders, loop limit, Fanuc M99 endless repeat
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    m99_repeat: bool = False
 
 
 def _take(table: dict, key: str, prefix: str) -> Any:
@@ -270,8 +274,8 @@ def _servo(table: Any) -> Servo:
 def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
-           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo",
-           "dialect", "g28_mm", "g30_mm", "user_mcodes"}
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
+           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -298,7 +302,21 @@ def config_from_dict(data: dict) -> MachineConfig:
         g28_mm=_position(data.get("g28_mm", [0.0, 0.0, 0.0]), "g28_mm"),
         g30_mm=_position(data.get("g30_mm", [0.0, 0.0, 0.0]), "g30_mm"),
         user_mcodes=_user_mcodes(data.get("user_mcodes", {})),
+        **_interpreter_keys(data),
     )
+
+
+def _interpreter_keys(data: dict) -> dict:
+    path = data.get("subroutine_path", [])
+    if not isinstance(path, list) or not all(isinstance(p, str) for p in path):
+        raise ConfigError("subroutine_path", f"must be a list of folder names, got {path!r}")
+    limit = data.get("max_loop_iterations", 10_000_000)
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ConfigError("max_loop_iterations", f"must be a whole number >= 1, got {limit!r}")
+    repeat = data.get("m99_repeat", False)
+    if not isinstance(repeat, bool):
+        raise ConfigError("m99_repeat", f"must be true or false, got {repeat!r}")
+    return {"subroutine_path": tuple(path), "max_loop_iterations": limit, "m99_repeat": repeat}
 
 
 def with_period(config: MachineConfig, period_s: float) -> MachineConfig:
@@ -315,7 +333,10 @@ def load_config(path: str | Path) -> MachineConfig:
         raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
     except UnicodeDecodeError as exc:
         raise ConfigError(str(path), f"not valid TOML: not UTF-8 text (byte {exc.start})") from exc
-    return config_from_dict(data)
+    config = config_from_dict(data)
+    # subroutine folders are relative to the machine file, as LinuxCNC's are to its INI file
+    folders = tuple(str(Path(path).parent / p) for p in config.subroutine_path)
+    return dataclasses.replace(config, subroutine_path=folders)
 
 
 def default_config() -> MachineConfig:

@@ -39,7 +39,8 @@ M_GROUPS: dict[int, str] = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 600:
                             70: "coolant", 80: "coolant", 90: "coolant", 60: "toolchange", 610: "toolchange",
                             **{c: "override" for c in range(480, 540, 10)},
                             **{c: "io" for c in range(620, 690, 10)},
-                            **{c: "user" for c in range(1000, 2000, 10)}}
+                            **{c: "user" for c in range(1000, 2000, 10)},
+                            980: "subprogram", 990: "subprogram"}
 _WHY_NOT = {
     330: "spindle-synchronised motion (threading)", 331: "rigid tapping (spindle-synchronised)",
     760: "threading cycle (spindle-synchronised)", 870: "back boring cycle",
@@ -114,12 +115,16 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
     g, mc = spec.g, spec.m
     moving = spec.moves(motion)
     nonmodal = g.get("nonmodal")
-    if spec.axes and nonmodal not in AXIS_NONMODAL and g.get("tool_length") != 431 and (motion is None or motion == 800 or motion == 53):
+    takes_axes = nonmodal in AXIS_NONMODAL or g.get("tool_length") == 431
+    if spec.axes and not takes_axes and (motion is None or motion == 800 or motion == 53):
         letter = spec.axes[0]
         what = "G80 cancels motion" if motion == 800 else "no motion mode is active"
         raise_at = spec.index[letter]
         return BlockError("E-NO-MOTION-MODE", f"axis word {letter} but {what}", raise_at)
     m = motion if moving else None
+    m98 = spec.m.get("subprogram") == 980
+    if m98 and "P" not in spec.index:
+        return BlockError("E-WORD-MISSING", "M98 needs a P word (the subprogram number)", spec.where["subprogram"])
     cycle = m in CYCLES
     io = (mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
           or mc.get("spindle") == 190)   # M19 R (angle) Q (timeout) P (direction)
@@ -128,9 +133,9 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
         "R": m in (20, 30, 62) or cycle or nonmodal == 100 or mc.get("spindle") == 190,
         "E": mc.get("io") is not None or mc.get("user") is not None,
         "P": (nonmodal in (40, 100) or g.get("path") == 640 or m in (20, 30, 50, 52, 62)
-              or m in DWELL_CYCLES or io),
+              or m in DWELL_CYCLES or io or m98),
         "Q": g.get("path") == 640 or m in (50, 62, 730, 830) or io or mc.get("toolchange") == 610,
-        "L": m == 52 or cycle or nonmodal == 100 or mc.get("io") == 660,
+        "L": m == 52 or cycle or nonmodal == 100 or mc.get("io") == 660 or m98,
         "H": g.get("tool_length") in (430, 432),
         "D": g.get("comp") in (410, 420, 411, 421) or g.get("spindle_mode") == 960,
     }

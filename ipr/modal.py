@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field
 
 from ipr.entities import CONTINUOUS, PathControl
+from ipr.parameters import Parameters
 
 INCH_MM = 25.4
 ZERO3 = (0.0, 0.0, 0.0)
@@ -24,6 +25,10 @@ class Setup:
     work_offsets_mm: "G54".."G59" -> (x, y, z) machine position of the work zero
     (missing = zero). tool_lengths_mm: tool number -> length for G43 H (missing: a
     warning and a zero offset). block_delete: skip lines starting with "/".
+    subroutine_path: folders searched for `<name>.ngc` subroutine files after the program's
+    own folder. max_loop_iterations: loop iterations allowed over a whole run (E-LOOP-LIMIT).
+    max_call_depth: nested calls allowed (E-CALL-DEPTH; rs274 refuses the 10th level).
+    m99_repeat: M99 in the main program starts it again (Fanuc's endless repeat), else an error.
     """
 
     work_offsets_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
@@ -34,18 +39,25 @@ class Setup:
     g30_mm: tuple[float, float, float] = ZERO3
     user_mcodes: dict[int, str] = field(default_factory=dict)   # M100..M199 the machine names
     dialect: str = "linuxcnc"   # ipr.dialect
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    max_call_depth: int = 9
+    m99_repeat: bool = False
 
     @classmethod
     def from_machine(cls, config) -> Setup:
         """The Setup of a machine configuration (ipo.config.MachineConfig, duck-typed:
-        `work_offsets_mm` and `tools` with `length_mm`; the rest where the config has it)."""
+        `work_offsets_mm` and `tools` with `length_mm`; the other keys if it has them)."""
         tools = config.tools.items()
         return cls(work_offsets_mm=dict(config.work_offsets_mm),
                    tool_lengths_mm={n: t.length_mm for n, t in tools},
                    tool_radii_mm={n: getattr(t, "radius_mm", 0.0) for n, t in tools},
                    g28_mm=tuple(getattr(config, "g28_mm", ZERO3)), g30_mm=tuple(getattr(config, "g30_mm", ZERO3)),
                    user_mcodes=dict(getattr(config, "user_mcodes", {})),
-                   dialect=getattr(config, "dialect", "linuxcnc"))
+                   dialect=getattr(config, "dialect", "linuxcnc"),
+                   subroutine_path=tuple(getattr(config, "subroutine_path", ())),
+                   max_loop_iterations=getattr(config, "max_loop_iterations", 10_000_000),
+                   m99_repeat=getattr(config, "m99_repeat", False))
 
     def work_offset(self, code10: int) -> tuple[float, float, float]:
         name = f"G{code10 // 10}" + (f".{code10 % 10}" if code10 % 10 else "")
@@ -92,7 +104,7 @@ class ModalState:
         self.mist = False
         self.flood = False
         self.nurbs = None
-        self.params: dict = {}
+        self.params = Parameters(self, setup)
         self.ended = False
         self.program_number: int | None = None
         self.retract_r = False          # G98 (False) / G99
