@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from ipo.config import default_config
-from ipo.nurbs import curve_points
-from ipo.period import PeriodBatch
+from ipo.nurbs.kernel import curve_points
+from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Coolant, Line, Nurbs, ProgramEnd, Rapid, Spindle, ToolChange
 from machine.grbl import protocol as P
 from machine.grbl.program import StreamLine, StreamProgramError, merge_polyline, resume_text, stream_lines
@@ -84,7 +84,7 @@ def test_work_frame_g53_preamble_and_line_numbers():
     coordinates; grbl in G20/G91 gets G21G90 first; numbered lines carry N<seq>."""
     fmt_ = Format((10.0, 20.0, -30.0), 1e-4, numbered=True)
     ents = [Rapid(1, (50, 50, -5), (50, 50, -2)), Line(2, (50, 50, -2), (60, 50, -2), 5.0)]
-    lines = list(stream_lines(ents, CFG, start_mm=(50, 50, -5), fmt_=fmt_, g53_lines=frozenset({1}),
+    lines = list(stream_lines(ents, CFG, start_mm=(50, 50, -5), fmt_=fmt_, g53_lines=frozenset({(None, 1)}),
                               modal=("G0", "G54", "G17", "G20", "G91", "G94")))
     assert [l.text for l in lines] == ["N1G21G90", "N2G53G0Z-2", "N3G1F300X50"]
     assert lines[2].start_mm == (50, 50, -2) and lines[2].end_mm == (60, 50, -2)

@@ -1,6 +1,6 @@
 """Job time before a stream and time remaining during it, from vcnc's own planner.
 
-vcnc's IPO (`ipo.feed.plan_periods`) plans the program with the machine file's
+vcnc's IPO (`ipo.feed.planner.plan_periods`) plans the program with the machine file's
 limits; the periods of each program line times the period give that line's time, and
 the remaining time from a stream line is the sum over the program lines from its own
 on. grbl plans with its own settings and 15-block look-ahead, so this is vcnc's
@@ -21,7 +21,7 @@ class JobEstimate:
 
     @classmethod
     def plan(cls, entities, lines, config, start_mm) -> JobEstimate:
-        from ipo.feed import plan_periods
+        from ipo.feed.planner import plan_periods
 
         per_line: dict[int, int] = {}
         for b in plan_periods(entities, config, start_mm=tuple(start_mm)):

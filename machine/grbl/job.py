@@ -38,8 +38,9 @@ def machine_at_zero() -> MachineState:
                         GRBL_RESET_MODAL)
 
 
-def g53_lines(text_lines: list[str]) -> frozenset[int]:
-    """Source lines whose block has G53 (read with the interpreter's own line parser)."""
+def g53_lines(text_lines: list[str], file: str | None = None) -> frozenset[tuple[str | None, int]]:
+    """(file, line) of the source lines whose block has G53 (read with the interpreter's
+    own line parser); file is None for the program itself, as in the entities."""
     from ipr import parse_line
 
     out = set()
@@ -51,8 +52,16 @@ def g53_lines(text_lines: list[str]) -> frozenset[int]:
         except Exception:  # the interpreter has already accepted the program; a line it skips has no G53 move
             continue
         if any(letter == "G" and value == G53_WORD for letter, value in words):
-            out.add(i)
+            out.add((file, i))
     return frozenset(out)
+
+
+def _g53_in(src: list[str], entities) -> frozenset:
+    """G53 lines of the program and of the subroutine files its entities came from."""
+    keys = set(g53_lines(src))
+    for f in {e.file for e in entities if getattr(e, "file", None)}:
+        keys |= g53_lines(Path(f).read_bytes().decode("utf-8", "replace").split("\n"), f)
+    return frozenset(keys)
 
 
 def build_job(path, config, state: MachineState, *, numbered: bool = False, frame_mm=None) -> Job:
@@ -70,7 +79,7 @@ def build_job(path, config, state: MachineState, *, numbered: bool = False, fram
     has_nurbs = any(isinstance(e, Nurbs) for e in program.entities)
     job.lines = list(stream_lines(program.entities, config, start_mm=state.mpos_mm,
                                   fmt_=Format(tuple(frame_mm or state.wco_mm), config.blu_mm / 10.0, numbered),
-                                  modal=state.modal, g53_lines=g53_lines(src), notices=job.notices,
+                                  modal=state.modal, g53_lines=_g53_in(src, program.entities), notices=job.notices,
                                   ipo_from_start=has_nurbs))
     unset = unset_axes(lambda s: iter_entities(iter(src), str(path), setup=s), setup)
     if unset:

@@ -7,7 +7,7 @@ where the axis moves, numbers as short as `words.Format` allows. That is exact
 because the interpreter starts where the machine stands (`machine.grbl.state`): an
 axis the program has not moved is where grbl's parser already holds it. G53 moves
 (source lines in `g53_lines`) go out as G53 in machine coordinates.
-NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.plan_periods`): the
+NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.planner.plan_periods`): the
 per-period path is merged into G1 segments within `merge_tol_mm` of the period
 points, and each segment carries the IPO's planned feed (the mean of the planned path
 speed over its periods), so grbl runs the curve at the speed vcnc planned.
@@ -133,7 +133,7 @@ class _PeriodCursor:
 
 
 def _plan_with_ipo(config) -> Callable[[Iterable, tuple], Iterator]:
-    from ipo.feed import plan_periods  # the feed stage; imported only when a program has a NURBS
+    from ipo.feed.planner import plan_periods  # the feed stage; imported only when a program has a NURBS
 
     # grbl rounds to its own steps: the vertices sent are the IPO's period points on the curve,
     # not rounded to the drive's BLU first (that added up to half a BLU per axis to the deviation)
@@ -310,8 +310,8 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), fmt_: 
                  notices: list[str] | None = None, ipo_from_start: bool = False) -> Iterator[StreamLine]:
     """The stream for a program's entities, interpreted from `start_mm` (machine
     coordinates, where grbl stands) with grbl's parser in the `modal` state ($G words).
-    `fmt_` says the work frame and precision; `g53_lines` the source lines that are G53
-    moves. `plan(entities, start_mm)` replaces the IPO (tests only); `notices` collects
+    `fmt_` says the work frame and precision; `g53_lines` the (file, line) of the source
+    lines that are G53 moves (file None for the program itself, as in the entities). `plan(entities, start_mm)` replaces the IPO (tests only); `notices` collects
     what grbl cannot do and vcnc did instead.
 
     The IPO runs in step with the stream, so its look-ahead sees every later entity, and
@@ -334,9 +334,9 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), fmt_: 
         if cursor is None and isinstance(e, Nurbs):
             cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos)))
         if isinstance(e, Rapid):
-            yield from b.straight(e.line, "G0", e.end, g53=e.line in g53_lines)
+            yield from b.straight(e.line, "G0", e.end, g53=(e.file, e.line) in g53_lines)
         elif isinstance(e, Line):
-            yield from b.straight(e.line, "G1", e.end, e.feed_mm_s * 60.0, g53=e.line in g53_lines)
+            yield from b.straight(e.line, "G1", e.end, e.feed_mm_s * 60.0, g53=(e.file, e.line) in g53_lines)
         elif isinstance(e, Arc):
             yield from b.arc(e)
         elif isinstance(e, Nurbs):
