@@ -28,7 +28,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 from numba import njit
 
-from ipr.entities import (PLANE_AXES, Arc, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+from ipr.entities import (PLANE_AXES, Arc, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 from machine.grbl.protocol import MAX_LINE_CHARS
 from machine.grbl.words import AXIS_LETTERS, DWELL_TOL_S, PLANE_CODE, RPM_TOL, Format, arc_words, fmt
@@ -283,6 +283,9 @@ class _Builder:
             notices.append(f"line {e.line}: grbl has no tool changer: the stream pauses (M0) for T{e.tool}; "
                            f"resume with ~")
             return [self.emit(e.line, "M0")]
+        if isinstance(e, Auxiliary):
+            notices.append(f"line {e.line}: {e.code} ({e.text}) is not sent; grbl has no such function")
+            return []
         if isinstance(e, Message):
             notices.append(f"line {e.line}: message {e.text!r} shown here only; grbl does not display messages")
             return []
