@@ -65,6 +65,20 @@ def test_g53_goes_out_as_g53_with_a_work_offset(tmp_path):
     assert "G53G0Z-2" in d.received
 
 
+def test_g10_g92_and_g28_move_where_their_semantics_say(tmp_path):
+    """vcnc's interpreter keeps G10 L2, G92 and G28 (grbl's stored G28 from `$#`) and sends
+    the resulting positions in grbl's start frame: G54 Z-20 at the start, machine at
+    X50 Y50 Z-10. By hand: Z5 -> machine Z-15; G54 Z becomes -25, Z5 -> -20; G92 X0 at
+    X50 makes X10 machine 60; G28 goes to the stored (0, 0, 0); after G92.1, X1 -> 1."""
+    d = GrblDouble(mpos=(50.0, 50.0, -10.0), wco=(0.0, 0.0, -20.0))
+    prog = _write(tmp_path, "G90 G0 Z5\nG10 L2 P1 Z-25\nG0 Z5\nG92 X0\nG0 X10\nG92.1\nG28\nG0 X1\nM2\n")
+    with PtyServer(d).start() as srv:
+        res = _run([prog, "--port", srv.port], tmp_path)
+    assert res.exit_code == 0, res.output
+    assert _ran(d) == [(50.0, 50.0, -15.0), (50.0, 50.0, -20.0), (60.0, 50.0, -20.0), (0.0, 0.0, 0.0),
+                       (1.0, 0.0, 0.0)]
+
+
 def test_error_before_the_cycle_started_resumes_from_the_first_line(tmp_path):
     """grbl parses slowly (its RX buffer still holds lines), so it has not started the
     cycle when line 5 is rejected: the reset throws away the planned lines 2-4 and

@@ -45,6 +45,8 @@ class MachineState:
     plane: str
     tool: int
     modal: tuple[str, ...]  # every word of $G, for the record
+    g28_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # grbl's stored G28 / G30 positions (machine)
+    g30_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def as_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -54,7 +56,8 @@ class MachineState:
         tup = lambda v: tuple(float(x) for x in v)  # noqa: E731
         return cls(tup(d["mpos_mm"]), tup(d["wco_mm"]), d["coord"],
                    {k: tup(v) for k, v in d["offsets_mm"].items()}, tup(d["g92_mm"]), float(d["tlo_mm"]),
-                   bool(d["inch"]), bool(d["incremental"]), d["plane"], int(d["tool"]), tuple(d["modal"]))
+                   bool(d["inch"]), bool(d["incremental"]), d["plane"], int(d["tool"]), tuple(d["modal"]),
+                   tup(d["g28_mm"]), tup(d["g30_mm"]))
 
 
 def parse_modal(lines: list[str]) -> tuple[str, ...]:
@@ -87,19 +90,21 @@ def machine_state(mpos_mm, wco_mm, modal: tuple[str, ...], params: dict) -> Mach
     return MachineState(tuple(float(v) for v in mpos_mm), tuple(float(v) for v in wco_mm), coord,
                         {k: tuple(params[k][:3]) for k in COORD_CODES}, tuple(params["G92"][:3]),
                         float(params["TLO"][0]), "G20" in modal, "G91" in modal,
-                        next((PLANE_OF[w] for w in modal if w in PLANE_OF), "XY"), tool, tuple(modal))
+                        next((PLANE_OF[w] for w in modal if w in PLANE_OF), "XY"), tool, tuple(modal),
+                        tuple(params.get("G28", (0.0, 0.0, 0.0))[:3]), tuple(params.get("G30", (0.0, 0.0, 0.0))[:3]))
 
 
-def program_setup(state: MachineState, config, *, start_mm=None):
-    """The interpreter's Setup for a program started on this machine: grbl's offsets
-    and modes, the machine file's tool lengths, the start at the machine position."""
+def program_setup(state: MachineState, config):
+    """The interpreter's Setup for a program started on this machine: grbl's offsets,
+    stored G28/G30 positions and modes, the start at the machine position; the rest
+    (tools, dialect, subroutines) from the machine file."""
     from ipr import Setup
 
-    return Setup(work_offsets_mm=dict(state.offsets_mm),
-                 tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()},
-                 start_mm=tuple(start_mm or state.mpos_mm), start_coord=int(state.coord[1:]) * 10,
-                 start_g92_mm=state.g92_mm, start_tool_offset_mm=state.tlo_mm, start_inch=state.inch,
-                 start_incremental=state.incremental, start_plane=state.plane)
+    return dataclasses.replace(
+        Setup.from_machine(config), work_offsets_mm=dict(state.offsets_mm), g28_mm=state.g28_mm,
+        g30_mm=state.g30_mm, start_mm=tuple(state.mpos_mm), start_coord=int(state.coord[1:]) * 10,
+        start_g92_mm=state.g92_mm, start_tool_offset_mm=state.tlo_mm, start_inch=state.inch,
+        start_incremental=state.incremental, start_plane=state.plane)
 
 
 def unset_axes(entities_from, setup) -> list[tuple[int, str]]:
