@@ -1,7 +1,6 @@
 """`vcnc run FILE`: check a program, run it in the virtual controller, print the summary."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import sys
 import time
@@ -148,9 +147,12 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
 
     config = load_machine(machine_file)
     if period_ms is not None:
-        if not period_ms > 0:
-            raise click.BadParameter("must be > 0", param_hint="--period-ms")
-        config = dataclasses.replace(config, period_s=period_ms / 1000.0)
+        from ipo.config import ConfigError, with_period
+
+        try:
+            config = with_period(config, period_ms / 1000.0)
+        except ConfigError as err:
+            raise click.BadParameter(str(err), param_hint="--period-ms") from None
     if not feed_override > 0:
         raise click.BadParameter("must be > 0", param_hint="--feed-override")
     controller = Controller(config, method=method, feed_override=feed_override / 100.0,
