@@ -35,7 +35,7 @@ from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, centripetal_binds, period_reasons
 from ipo.feed.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
-from ipo.feed.roughness import cusp_height_mm
+from ipo.roughness import cusp_height_mm
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.split import corner_parts
 from ipo.feed.window import Window
