@@ -7,7 +7,8 @@ and a N-RECORDED notice).
 
 - bookkeeping codes (`EXTRA_M`, `EXTRA_G`): Haas M31 parts counter, M33 chip conveyor stop,
   M88/M89 through-spindle coolant, G187 smoothness, G103 look-ahead; Fanuc M29 rigid-tap mode,
-  G05.1 Q AI contour control, G08 P look-ahead; they change nothing in the simulation;
+  G05.1 Q AI contour control, G08 P look-ahead; Mach3 G50 scaling off; they change nothing in
+  the simulation;
 - a zero offset of the plane's normal axis on an arc (FreeCAD's `K0` in G17), accepted by
   every dialect but linuxcnc;
 - Fanuc reads a dwell's P (G4, G82, G86, G88, G89) in milliseconds;
@@ -32,7 +33,7 @@ EXTRA_G: dict[str, dict[int, str]] = {
     "fanuc": {51: "AI contour control (G05.1 Q)", 80: "look-ahead control (G08 P)"},
     "haas": {1870: "smoothness/accuracy setting (G187)", 1030: "block look-ahead limit (G103)",
              51: "AI contour control (G05.1 Q)", 80: "look-ahead control (G08 P)"},
-    "mach3": {},
+    "mach3": {500: "scaling off (G50)"},
     "grbl": {},
 }
 
