@@ -175,27 +175,30 @@ def _plot(res: dict, out: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from machine.plot import envelope_line
+
     fig, ((ax_path, ax_feed), (ax_near, ax_near_feed)) = plt.subplots(2, 2, figsize=(14, 10))
     for key, style in (("a", "-"), ("b", "--")):
         run = res["_runs"][key]
         name = Path(res["files"][key == "b"]).name
         pos = run["trace"]["pos_mm"]
-        i, j, k = np.argsort(np.ptp(pos, axis=0))[::-1]
-        ax_path.plot(pos[:, i], pos[:, j], style, lw=0.6, label=name)
-        ax_path.set_xlabel("XYZ"[i] + " mm")
-        ax_path.set_ylabel("XYZ"[j] + " mm")
+        # the true XY view: X across, Y up, one scale (a circle is a circle, not its mirror image)
+        ax_path.plot(pos[:, 0], pos[:, 1], style, lw=0.6, label=name)
         idx, speed, _, step = _cut_periods(run)
         s = np.cumsum(step)
-        ax_feed.plot(s[idx], speed[idx] * 60, style, lw=0.6, label=name)
+        ax_feed.plot(*envelope_line(s[idx], speed[idx] * 60), style, lw=0.6, label=name)
         near = idx[s[idx] <= s[idx[0]] + DETAIL_MM]
-        side = k if np.ptp(pos[near, k]) > 0 else j
-        ax_near.plot(pos[near, i], pos[near, side], style, lw=0.8, label=name)
-        ax_near.set_xlabel("XYZ"[i] + " mm")
+        side = 2 if np.ptp(pos[near, 2]) > 0 else 1
+        ax_near.plot(pos[near, 0], pos[near, side], style, lw=0.8, label=name)
         ax_near.set_ylabel("XYZ"[side] + " mm")
-        ax_near_feed.plot(s[near], speed[near] * 60, style, lw=0.8, label=name)
+        ax_near_feed.plot(*envelope_line(s[near], speed[near] * 60), style, lw=0.8, label=name)
+    ax_path.set_xlabel("X mm")
+    ax_path.set_ylabel("Y mm")
+    ax_near.set_xlabel("X mm")
     ax_path.set_title("paths (commanded positions)")
     ax_path.set_aspect("equal", adjustable="datalim")
-    ax_feed.set_title("feed against distance (cutting periods)")
+    ax_near.set_aspect("equal", adjustable="datalim")
+    ax_feed.set_title("feed against distance (cutting periods; min and max per column)")
     ax_near.set_title(f"the first {DETAIL_MM:g} mm of cut")
     ax_near_feed.set_title(f"feed over the first {DETAIL_MM:g} mm of cut")
     for ax in (ax_feed, ax_near_feed):
