@@ -52,6 +52,13 @@ _START_TOL_MM = 1e-6
 _STANDSTILL_X = 1e-12  # v^2 below this (v < 1 um/s) counts as standing still
 
 
+
+def nurbs_end_gap_mm(config: MachineConfig) -> float:
+    """The gap of the end samples of the planner's NURBS tables (sampling.nurbs_table): two
+    periods at the top path speed. The controller's check tables the curves the same way."""
+    v_top = float(np.linalg.norm(np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE))
+    return 2 * v_top * config.period_s
+
 class FeedPlanner:
     """Streaming look-ahead planner; see the module docstring."""
 
@@ -105,7 +112,7 @@ class FeedPlanner:
         self._n_nurbs = 0
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
-        self._v_top = float(np.linalg.norm(self.v_max))
+        self._end_gap_mm = nurbs_end_gap_mm(config)
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -169,7 +176,7 @@ class FeedPlanner:
     def _add_nurbs(self, e: Nurbs) -> int:
         idx = self._n_nurbs
         self._n_nurbs += 1
-        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e, end_gap_mm=2 * self._v_top * self.T), self.method)
+        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e, end_gap_mm=self._end_gap_mm), self.method)
         return idx
 
     def _build_pending_event(self, e) -> None:
@@ -211,7 +218,7 @@ class FeedPlanner:
         if len(pc) == 0:
             return
         tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
-        smp = sample(pc, self._s_end, tables, end_gap_mm=2 * self._v_top * self.T)
+        smp = sample(pc, self._s_end, tables, end_gap_mm=self._end_gap_mm)
         if self._pieces is None:
             base = self._piece_base
             self._pieces = pc
