@@ -21,7 +21,8 @@ METHODS = ("recursive", "taylor1", "taylor2")
 ACCEL_MODES = ("trapezoid", "scurve")
 SERVO_MODELS = ("none", "lag", "pd")
 AXIS_NAMES = ("x", "y", "z")
-WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60))
+WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60)) + ("G59.1", "G59.2", "G59.3")
+DIALECTS = ("linuxcnc", "fanuc", "haas", "mach3", "grbl")
 
 
 # key pattern (an axis, tool or work offset name as *) -> inclusive (low, high) and why the bounds
@@ -80,6 +81,7 @@ class Tool:
     length_mm: float = 0.0
     ball_radius_mm: float = 0.0  # 0 for a flat end mill
     flutes: int = 2
+    radius_mm: float = 0.0       # cutter radius for G41/G42 (D)
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +115,14 @@ class MachineConfig:
     finishing: Finishing | None = None
     servo: Servo = Servo()
     accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+    dialect: str = "linuxcnc"    # ipr.dialect: what posts of other controls write
+    g28_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)   # G28/G30 stored positions at start (machine)
+    g30_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    user_mcodes: dict[int, str] = field(default_factory=dict)   # M100..M199 the machine has
+    # the interpreter's (ipr.Setup): subroutine file folders, loop limit, Fanuc M99 endless repeat
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    m99_repeat: bool = False
 
 
 def _take(table: dict, key: str, prefix: str) -> Any:
@@ -170,14 +180,15 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
         if not isinstance(t, dict):
             raise ConfigError(f"tools.{key}", "must be a table")
-        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes"}, prefix)
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
         if isinstance(flutes, bool) or not isinstance(flutes, int):
             raise ConfigError(prefix + "flutes", f"must be an integer, got {flutes!r}")
         _number(flutes, prefix + "flutes")
         tools[int(key)] = Tool(_number(t.get("length_mm", 0.0), prefix + "length_mm"),
                                _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm",
-                                       nonneg=True), flutes)
+                                       nonneg=True), flutes,
+                               _number(t.get("radius_mm", 0.0), prefix + "radius_mm", nonneg=True))
     return tools
 
 
@@ -192,6 +203,25 @@ def _work_offsets(table: Any) -> dict[str, tuple[float, float, float]]:
         if not isinstance(v, list) or len(v) != 3:
             raise ConfigError(k, f"must be a list of 3 numbers, got {v!r}")
         out[key] = tuple(_number(c, k) for c in v)
+    return out
+
+
+def _position(v: Any, key: str) -> tuple[float, float, float]:
+    if not isinstance(v, list) or len(v) != 3:
+        raise ConfigError(key, f"must be a list of 3 numbers, got {v!r}")
+    return tuple(_number(c, key) for c in v)
+
+
+def _user_mcodes(table: Any) -> dict[int, str]:
+    """user_mcodes: "M100" = "what it does", for M100..M199."""
+    if not isinstance(table, dict):
+        raise ConfigError("user_mcodes", "must be a table")
+    out = {}
+    for key, text in table.items():
+        number = str(key).upper().removeprefix("M")
+        if not number.isdigit() or not 100 <= int(number) <= 199 or not isinstance(text, str):
+            raise ConfigError(f"user_mcodes.{key}", "keys are M100..M199, values describe the code")
+        out[int(number)] = text
     return out
 
 
@@ -244,7 +274,8 @@ def _servo(table: Any) -> Servo:
 def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
-           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo"}
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
+           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -267,7 +298,25 @@ def config_from_dict(data: dict) -> MachineConfig:
         finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
         servo=_servo(data.get("servo", {})),
         accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+        dialect=_choice(data.get("dialect", "linuxcnc"), "dialect", DIALECTS),
+        g28_mm=_position(data.get("g28_mm", [0.0, 0.0, 0.0]), "g28_mm"),
+        g30_mm=_position(data.get("g30_mm", [0.0, 0.0, 0.0]), "g30_mm"),
+        user_mcodes=_user_mcodes(data.get("user_mcodes", {})),
+        **_interpreter_keys(data),
     )
+
+
+def _interpreter_keys(data: dict) -> dict:
+    path = data.get("subroutine_path", [])
+    if not isinstance(path, list) or not all(isinstance(p, str) for p in path):
+        raise ConfigError("subroutine_path", f"must be a list of folder names, got {path!r}")
+    limit = data.get("max_loop_iterations", 10_000_000)
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ConfigError("max_loop_iterations", f"must be a whole number >= 1, got {limit!r}")
+    repeat = data.get("m99_repeat", False)
+    if not isinstance(repeat, bool):
+        raise ConfigError("m99_repeat", f"must be true or false, got {repeat!r}")
+    return {"subroutine_path": tuple(path), "max_loop_iterations": limit, "m99_repeat": repeat}
 
 
 def with_period(config: MachineConfig, period_s: float) -> MachineConfig:
@@ -284,7 +333,10 @@ def load_config(path: str | Path) -> MachineConfig:
         raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
     except UnicodeDecodeError as exc:
         raise ConfigError(str(path), f"not valid TOML: not UTF-8 text (byte {exc.start})") from exc
-    return config_from_dict(data)
+    config = config_from_dict(data)
+    # subroutine folders are relative to the machine file, as LinuxCNC's are to its INI file
+    folders = tuple(str(Path(path).parent / p) for p in config.subroutine_path)
+    return dataclasses.replace(config, subroutine_path=folders)
 
 
 def default_config() -> MachineConfig:

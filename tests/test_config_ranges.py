@@ -41,6 +41,8 @@ END_MM = (0.0, 0.0, 0.1)
 
 
 def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
     if isinstance(v, float):
         return "inf" if v == math.inf else "-inf" if v == -math.inf else "nan" if v != v else repr(v)
     if isinstance(v, str):

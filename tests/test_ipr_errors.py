@@ -12,11 +12,23 @@ CASES = [
     ("G1 X1 $", "E-SYNTAX", 1, 7),
     ("G0 X1\nG1 X[1+] F100", "E-SYNTAX", 2, 8),
     ("G0 X1\nG1 X2 Y", "E-SYNTAX", 2, 8),
-    ("G1 A1", "E-WORD-UNSUPPORTED", 1, 4),
+    ("G1 E1", "E-WORD-UNUSED", 1, 4),
+    ("G1 A1", "E-AXIS-ABSENT", 1, 4),
+    ("G0 X1\nM3 S100 G1 W2 F10", "E-AXIS-ABSENT", 2, 12),
     ("G0 X1\n  G41 X2", "E-GCODE-UNSUPPORTED", 2, 3),
-    ("G93 G1 X1 F1", "E-GCODE-UNSUPPORTED", 1, 1),
-    ("G0 X1\nG28", "E-GCODE-UNSUPPORTED", 2, 1),
-    ("G0 X1 M99", "E-MCODE-UNSUPPORTED", 1, 7),
+    ("G0 X1 G33 X2 K1", "E-GCODE-UNSUPPORTED", 1, 7),
+    ("G0 X1\nG38.2 Z-5 F10", "E-GCODE-UNSUPPORTED", 2, 1),
+    ("G0 X1\nG76 P1 Z-5 I1 J1 K1", "E-GCODE-UNSUPPORTED", 2, 1),
+    ("G0 Z5\nG81 X1 Z-1 F100", "E-CYCLE", 2, 1),
+    ("G0 Z5\nG0 Z5 F10\nG83 X1 Z-2 R1 Q0", "E-CYCLE", 3, 15),
+    ("G0 Z5\nG86 X1 Z-2 R1 P1 F100", "E-SPINDLE", 2, 1),
+    ("G10 L2 X1", "E-OFFSET", 1, 1),
+    ("G10 L3 P1 X1", "E-OFFSET", 1, 5),
+    ("G0 X1\nG28.1 X2", "E-OFFSET", 2, 7),
+    ("G93 G1 X1 F10\nG1 X2", "E-FEED-MODE", 2, 1),
+    ("G95 G1 X1 F0.1", "E-FEED-MODE", 1, 5),
+    ("G0 X1\nM101", "E-MCODE-USER", 2, 1),
+    ("G0 X1 M77", "E-MCODE-UNSUPPORTED", 1, 7),
     ("G0 X1 X2", "E-WORD-REPEATED", 1, 7),
     ("G0 G1 X1", "E-MODAL-GROUP", 1, 4),
     ("G17 G18", "E-MODAL-GROUP", 1, 5),
@@ -44,6 +56,19 @@ CASES = [
     ("G0 X#6000", "E-PARAM", 1, 4),
     ("G0 X[1/0]", "E-EXPR", 1, 4),
     ("G0 X0 Y[SQRT[-1]]", "E-EXPR", 1, 7),
+    ("G0 X[" + "-" * 196 + "#1]", "E-EXPR-TOO-DEEP", 1, 4),
+    ("G0 X1\nG0 X[" + "+".join(["1"] * 196) + "]", "E-EXPR-TOO-DEEP", 2, 4),
+    ("G0 X" + "[" * 1000 + "1" + "]" * 1000, "E-EXPR-TOO-DEEP", 1, 105),
+    ("G0 X1\no1 if [" + "[" * 200 + "1" + "]" * 200 + "]", "E-EXPR-TOO-DEEP", 2, 107),
+    ("G0 X1\no100 endsub", "E-OWORD", 2, 1),
+    ("o1 if [1]\nG0 X1\no1 endwhile", "E-OWORD", 3, 1),
+    ("o1 while [0]\nG0 X1", "E-OWORD", 1, 1),
+    ("G0 X1\no1 frob", "E-OWORD", 2, 4),
+    ("G0 X1\nM99", "E-OWORD", 2, 1),
+    ("G0 X1\n  o<nowhere> call [1]", "E-SUB-NOT-FOUND", 2, 1),
+    ("M98 P77", "E-SUB-NOT-FOUND", 1, 1),
+    ("G0 X0\no1 repeat [20000000]\nG0 X1\no1 endrepeat", "E-LOOP-LIMIT", 2, 1),
+    ("o<r> sub\nG0 X1\no<r> call\no<r> endsub\no<r> call", "E-CALL-DEPTH", 3, 1),
     ("F100 G2 X1 Y1 R1 I1", "E-ARC-FORMAT", 1, 15),
     ("F100 G2 X1 Y1", "E-ARC-FORMAT", 1, 6),
     ("F100 G2 X1 Y1 K1", "E-ARC-FORMAT", 1, 15),
@@ -101,7 +126,7 @@ def test_error_table_is_documented():
 
 def test_messages_name_the_code_or_the_number():
     assert "G41" in _first_error("G41 X1").message
-    assert "G28" in _first_error("G28").message
+    assert "G33" in _first_error("G0 X1 G33 X2 K1").message
     assert "0.200 mm off the circle" in _first_error("F100 G2 X2 Y0 I1.1").message
     assert "line 2" in _first_error("F100\nG6.2 P3 K0\nX1 K0\nK0\nK1\nK1\nK1").message
 
@@ -112,7 +137,7 @@ def test_incomplete_group_names_its_first_line():
 
 
 def test_all_errors_collects_every_error_and_continues():
-    text = "G0 X1\nG41 X2\nG1 X3\nG0 Y4 Y5\nF100 G1 X6\nM99\n"
+    text = "G0 X1\nG41 X2\nG1 X3\nG0 Y4 Y5\nF100 G1 X6\nM77\n"
     with pytest.raises(GCodeError) as info:
         ipr.parse_text(text, "p.nc", all_errors=True)
     got = [(d.line, d.code) for d in info.value.diagnostics]
