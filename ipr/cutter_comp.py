@@ -215,7 +215,7 @@ def straight(st, kind: str, line: int, end, feed_mm_s, out: list) -> None:
         else:
             mid = _arc_to_line_corner(front, side, r, opx, opy, px, py)
         emitted = _flush(out, comp, mid)
-        endpoint = None
+        endpoint = mid   # move_endpoint_and_flush ends with set_endpoint
     else:
         emitted = _dequeue(out, comp)
         endpoint = (cx, cy)
@@ -324,7 +324,7 @@ def arc(st, line: int, end, center_xy, turn: int, feed_mm_s, out: list) -> None:
             d = cc_dir + sign * pullback
             mid = (front.center[0] + oldrad * math.cos(d), front.center[1] + oldrad * math.sin(d))
         emitted = _flush(out, comp, mid)
-        endpoint = None
+        endpoint = mid   # move_endpoint_and_flush ends with set_endpoint
     elif beta > SMALL:   # convex: an arc about the programmed corner first
         mid = (opx + r * math.cos(delta), opy + r * math.sin(delta))
         emitted = _dequeue(out, comp)
