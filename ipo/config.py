@@ -17,6 +17,7 @@ from typing import Any, Literal
 METHODS = ("recursive", "taylor1", "taylor2")
 ACCEL_MODES = ("trapezoid", "scurve")
 SERVO_MODELS = ("none", "lag", "pd")
+TOOL_SHAPES = ("flat", "ball", "bull")
 AXIS_NAMES = ("x", "y", "z")
 WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60))
 
@@ -43,6 +44,9 @@ class Tool:
     length_mm: float = 0.0
     ball_radius_mm: float = 0.0  # 0 for a flat end mill
     flutes: int = 2
+    shape: str = ""  # flat | ball | bull; "" = ball if ball_radius_mm > 0, else flat
+    diameter_mm: float = 0.0  # 0 = 2 * ball_radius_mm
+    corner_radius_mm: float = 0.0  # bull nose only
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,6 +80,7 @@ class MachineConfig:
     finishing: Finishing | None = None
     servo: Servo = Servo()
     accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+    stock_mm: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None  # (min, max), work coords
 
 
 def _take(table: dict, key: str, prefix: str) -> Any:
@@ -130,14 +135,53 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
         if not isinstance(t, dict):
             raise ConfigError(f"tools.{key}", "must be a table")
-        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes"}, prefix)
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "shape", "diameter_mm", "corner_radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
         if isinstance(flutes, bool) or not isinstance(flutes, int) or flutes < 1:
             raise ConfigError(prefix + "flutes", f"must be an integer >= 1, got {flutes!r}")
-        tools[int(key)] = Tool(_number(t.get("length_mm", 0.0), prefix + "length_mm"),
-                               _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm",
-                                       nonneg=True), flutes)
+        tools[int(key)] = _tool_shape(Tool(
+            _number(t.get("length_mm", 0.0), prefix + "length_mm"),
+            _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm", nonneg=True), flutes,
+            _choice(t["shape"], prefix + "shape", TOOL_SHAPES) if "shape" in t else "",
+            _number(t.get("diameter_mm", 0.0), prefix + "diameter_mm", nonneg=True),
+            _number(t.get("corner_radius_mm", 0.0), prefix + "corner_radius_mm", nonneg=True)), prefix)
     return tools
+
+
+def _tool_shape(tool: Tool, prefix: str) -> Tool:
+    """Resolve the shape: ball_radius_mm alone is a ball (the old table), a ball's radius and diameter agree."""
+    shape = tool.shape or ("ball" if tool.ball_radius_mm > 0 else "flat")
+    diameter = tool.diameter_mm or 2.0 * tool.ball_radius_mm
+    if shape == "ball":
+        if tool.ball_radius_mm and tool.diameter_mm and abs(tool.diameter_mm - 2 * tool.ball_radius_mm) > 1e-9:
+            raise ConfigError(prefix + "diameter_mm", f"a ball's diameter is twice ball_radius_mm "
+                                                      f"({tool.ball_radius_mm}), got {tool.diameter_mm}")
+        if diameter <= 0:
+            raise ConfigError(prefix + "diameter_mm", "a ball needs diameter_mm or ball_radius_mm")
+        return Tool(tool.length_mm, diameter / 2.0, tool.flutes, shape, diameter, 0.0)
+    if tool.ball_radius_mm > 0:
+        raise ConfigError(prefix + "ball_radius_mm", f"only a ball has a ball radius (shape = {shape!r})")
+    if shape == "bull" and not 0 < tool.corner_radius_mm <= diameter / 2.0:
+        raise ConfigError(prefix + "corner_radius_mm", f"a bull nose needs 0 < corner_radius_mm <= diameter_mm/2 "
+                                                       f"({diameter / 2.0}), got {tool.corner_radius_mm}")
+    if shape == "flat" and tool.corner_radius_mm:
+        raise ConfigError(prefix + "corner_radius_mm", "a flat end mill has no corner radius (use shape = 'bull')")
+    return Tool(tool.length_mm, 0.0, tool.flutes, shape, diameter, tool.corner_radius_mm)
+
+
+def _stock(table: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    if not isinstance(table, dict):
+        raise ConfigError("stock", "must be a table with min_mm and max_mm")
+    _no_extra(table, {"min_mm", "max_mm"}, "stock.")
+    corners = []
+    for key in ("min_mm", "max_mm"):
+        v = _take(table, key, "stock.")
+        if not isinstance(v, list) or len(v) != 3:
+            raise ConfigError("stock." + key, f"must be a list of 3 numbers, got {v!r}")
+        corners.append(tuple(_number(c, "stock." + key) for c in v))
+    if not all(lo < hi for lo, hi in zip(*corners)):
+        raise ConfigError("stock.max_mm", f"must exceed min_mm {list(corners[0])} on every axis, got {list(corners[1])}")
+    return corners[0], corners[1]
 
 
 def _work_offsets(table: Any) -> dict[str, tuple[float, float, float]]:
@@ -189,7 +233,7 @@ def _servo(table: Any) -> Servo:
 def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
-           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo"}
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "stock"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -212,6 +256,7 @@ def config_from_dict(data: dict) -> MachineConfig:
         finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
         servo=_servo(data.get("servo", {})),
         accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+        stock_mm=_stock(data["stock"]) if "stock" in data else None,
     )
 
 

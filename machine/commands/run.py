@@ -99,13 +99,23 @@ def _run_fast(controller, program, show_progress: bool):
 @click.option("--realtime", is_flag=True, help="Pace at the period; keys: space hold/resume, +/- override, s stop.")
 @click.option("--optional-stop", is_flag=True, help="Honour M1 optional stops.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+@click.option("--stock", "stock_text", help="Cut a virtual workpiece: stock box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm, "
+              "work coordinates; default: the machine file's [stock]).")
+@click.option("--tool", "tool", type=int, help="The tool cutting the workpiece from the start (default: the "
+              "program's first T… M6, else the [finishing] tool).")
+@click.option("--grid-um", type=float, help="Z-map spacing in um (default: from the tool and the chord tolerance).")
+@click.option("--surface", "surface_files", multiple=True, type=click.Path(dir_okay=False),
+              help="Write the machined surface: .npz (x_mm, y_mm, z_mm, gouge_line), .stl or .png; repeatable.")
 def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, realtime, optional_stop,
-            as_json):
+            as_json, stock_text, tool, grid_um, surface_files):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.trace import MemoryTrace, load_trace, open_writer
 
     config = load_machine(machine_file)
+    from machine.workpiece.cli_run import check_surface_outputs, start_workpiece, finish_workpiece
+
+    cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config)
     if period_ms is not None:
         if not period_ms > 0:
             raise click.BadParameter("must be > 0", param_hint="--period-ms")
@@ -128,12 +138,16 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         sys.exit(1)
     for warning in program.warnings:
         click.echo(str(warning), err=True)
+    workpiece = start_workpiece(program, config, stock_text, tool, grid_um) if cutting else None
+    if workpiece is not None:
+        shown = controller.on_event
+        controller.on_event = lambda e: (workpiece.event(e), shown(e))
 
     servo = config.servo.model != "none"
     meta = dict(controller.limits.meta(), file=str(file))
     writer = open_writer(trace_file, meta, servo) if trace_file else None
     memory = MemoryTrace(meta) if plot_file and not trace_file else None
-    controller.sinks = [s for s in (writer, memory) if s is not None]
+    controller.sinks = [s for s in (writer, memory, workpiece) if s is not None]
     try:
         if realtime:
             result = _run_realtime(controller, program)
@@ -143,6 +157,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         if writer is not None:
             writer.close()
     _print_summary(result, as_json)
+    if workpiece is not None:
+        finish_workpiece(workpiece, result, surface_files)
     if result.state != "completed":
         where = f"line {result.line}" if result.periods else "the start, before the first move"
         click.echo(f"{file}: {result.state} at {where}, position "
