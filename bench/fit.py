@@ -35,10 +35,10 @@ CORPUS_RUNS = {"g1_3d_chips.ngc": (106, 206, 976), "g1_lhchips4.ngc": (170, 338)
 MACHINE = ROOT / "programs" / "finish_machine.toml"
 TOLS_MM = (0.001, 0.01)
 
-from ipo.fit_tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
-from ipo.g01_runs import run_vertices, split_runs  # noqa: E402
+from ipo.fit.tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
+from ipo.fit.g01_runs import run_vertices, split_runs  # noqa: E402
 from ipr import parse_text  # noqa: E402
-from machine.convert import convert_text, count_blocks  # noqa: E402
+from ipo.fit.convert import convert_text, count_blocks  # noqa: E402
 
 
 def programs(quick: bool) -> list[tuple[str, str]]:

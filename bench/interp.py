@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ipo import nurbs
-from ipo.chord_study import study
-from ipo.reference_pulse import pulse_deviation_blu, pulse_path, pulses
-from ipo.steppers import make_stepper
+from ipo.nurbs import kernel as nurbs
+from ipo.interp.chord_study import study
+from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
+from ipo.interp.steppers import make_stepper
 from ipr import parse_file
 from ipr.entities import Nurbs
 

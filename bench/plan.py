@@ -2,7 +2,7 @@
 
     python bench/plan.py            # all cases (about a minute)
 
-For each case it prints the cycle time of ipo.feed.plan_periods, a time-optimal bound for
+For each case it prints the cycle time of ipo.feed.planner.plan_periods, a time-optimal bound for
 the same limits, their ratio, LinuxCNC 2.9's figure for the same limits, the limit
 violations found by finite differences of the per-period positions, and the largest
 distance of the programmed geometry from the per-period polyline (chord error and corner
@@ -33,9 +33,9 @@ from scipy.spatial import cKDTree
 
 import ipr
 from ipo.config import Finishing, default_config
-from ipo.feed import plan_periods
-from ipo.period import LIMIT_NAMES, PeriodBatch
-from ipo.roughness import inclination_rad, rmax_mm
+from ipo.feed.planner import plan_periods
+from ipo.contracts import LIMIT_NAMES, PeriodBatch
+from ipo.feed.roughness import inclination_rad, rmax_mm
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc"

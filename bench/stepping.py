@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from ipo.line_arc import ArcStepper, LineStepper
+from ipo.interp.line_arc import ArcStepper, LineStepper
 from ipr.entities import Arc, Line
 
 STEP_MM = 50.0 * 1e-3  # 50 mm/s at a 1 ms period

@@ -31,7 +31,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from grbl_emulator import GrblDouble, PtyServer  # noqa: E402
 from ipo.config import default_config  # noqa: E402
-from ipo.nurbs import curve_points  # noqa: E402
+from ipo.nurbs.kernel import curve_points  # noqa: E402
 from ipr import parse_file  # noqa: E402
 from ipr.entities import Line, Nurbs, Rapid  # noqa: E402
 from machine.grbl.budget import stream_demand  # noqa: E402

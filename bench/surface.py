@@ -27,12 +27,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-from ipo.iges import RationalCurve, read_surfaces, write_iges  # noqa: E402
-from ipo.rational_fit import fit_rational  # noqa: E402
-from ipo.section_fit import fit_sections, fit_shared, section_error  # noqa: E402
-from ipo.skinning import deviation_from_points, skin_patches  # noqa: E402
-from ipo.surface import grid, surface_points  # noqa: E402
-from ipo.toolpath import ToolpathSettings, plan_passes, program_text  # noqa: E402
+from ipo.surface.iges import RationalCurve, read_surfaces, write_iges  # noqa: E402
+from ipo.fit.rational import fit_rational  # noqa: E402
+from ipo.surface.section_fit import fit_sections, fit_shared, section_error  # noqa: E402
+from ipo.surface.skinning import deviation_from_points, skin_patches  # noqa: E402
+from ipo.surface.evaluation import grid, surface_points  # noqa: E402
+from ipo.surface.toolpath import ToolpathSettings, plan_passes, program_text  # noqa: E402
 from surface_cases import bump, cylinder, geomdl_surface, saddle  # noqa: E402
 
 

@@ -2,10 +2,13 @@
 
 The documented default is `ipo/machine.toml` (linked as `programs/machine.toml`);
 `default_config()` reads that same file, so the two can never disagree.
-Every bad value raises ConfigError naming the offending key.
+Every bad value raises ConfigError naming the offending key; every number must lie in its
+key's physically sensible range (RANGES, documented in docs/machine-file.md), so that a value
+the loader accepts is one the planner and the drive can run with.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -20,6 +23,44 @@ SERVO_MODELS = ("none", "lag", "pd")
 TOOL_SHAPES = ("flat", "ball", "bull")
 AXIS_NAMES = ("x", "y", "z")
 WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60))
+
+
+# key pattern (an axis, tool or work offset name as *) -> inclusive (low, high) and why the bounds
+RANGES: dict[str, tuple[float, float, str]] = {
+    "period_s": (1e-5, 0.1, "10 us (a fast FPGA loop) to 100 ms"),
+    "blu_mm": (1e-6, 0.01, "1 nm to 10 um"),
+    "chord_tol_mm": (1e-6, 1.0, "1 nm to 1 mm"),
+    "g64_blend_tol_mm": (0.0, 10.0, "0 (no blending) to 10 mm"),
+    "rapid_mm_s": (0.01, 1e4, "0.6 mm/min to 600 m/min"),
+    "axes.*.max_velocity_mm_s": (0.01, 1e4, "0.6 mm/min to 600 m/min"),
+    "axes.*.max_accel_mm_s2": (1.0, 1e6, "1 mm/s^2 to about 100 g"),
+    "axes.*.max_jerk_mm_s3": (10.0, 1e9, "10 mm/s^3 to 1e9 mm/s^3"),
+    "axes.*.min_mm": (-1e5, 1e5, "within 100 m of the origin"),
+    "axes.*.max_mm": (-1e5, 1e5, "within 100 m of the origin"),
+    "work_offsets_mm.*": (-1e5, 1e5, "within 100 m of the origin"),
+    "tools.*.length_mm": (-1000.0, 1000.0, "up to 1 m either way"),
+    "tools.*.ball_radius_mm": (0.0, 100.0, "0 (flat end mill) to 100 mm"),
+    "tools.*.flutes": (1, 100, "1 to 100"),
+    "tools.*.diameter_mm": (0.0, 200.0, "0 (from ball_radius_mm) to 200 mm"),
+    "tools.*.corner_radius_mm": (0.0, 100.0, "0 to 100 mm"),
+    "stock.min_mm": (-1e5, 1e5, "within 100 m of the origin"),
+    "stock.max_mm": (-1e5, 1e5, "within 100 m of the origin"),
+    "finishing.pick_feed_mm": (1e-4, 100.0, "0.1 um to 100 mm (and below the ball diameter)"),
+    "finishing.roughness_target_um": (1e-3, 1e3, "1 nm to 1 mm"),
+    "servo.time_constant_s": (0.0, 1.0, "0 to 1 s"),
+    "servo.kp_1_s": (0.0, 1e4, "0 to 10,000 1/s"),
+    "servo.kd": (0.0, 100.0, "0 to 100"),
+}
+
+
+def range_key(key: str) -> str:
+    """The RANGES pattern of a key: its axis, tool or work offset name replaced by *."""
+    parts = key.split(".")
+    if parts[0] in ("axes", "tools") and len(parts) == 3:
+        parts[1] = "*"
+    elif parts[0] == "work_offsets_mm" and len(parts) == 2:
+        parts[1] = "*"
+    return ".".join(parts)
 
 
 class ConfigError(ValueError):
@@ -80,6 +121,10 @@ class MachineConfig:
     finishing: Finishing | None = None
     servo: Servo = Servo()
     accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+    # the interpreter's (ipr.Setup): subroutine file folders, loop limit, Fanuc M99 endless repeat
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    m99_repeat: bool = False
     stock_mm: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None  # (min, max), work coords
 
 
@@ -96,6 +141,9 @@ def _number(value: Any, key: str, *, positive: bool = False, nonneg: bool = Fals
         raise ConfigError(key, f"must be > 0, got {value!r}")
     if nonneg and value < 0:
         raise ConfigError(key, f"must be >= 0, got {value!r}")
+    if (bounds := RANGES.get(range_key(key))) is not None and not bounds[0] <= value <= bounds[1]:
+        low, high, why = bounds
+        raise ConfigError(key, f"must be between {low:g} and {high:g} ({why}), got {value!r}")
     return float(value)
 
 
@@ -137,8 +185,9 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "must be a table")
         _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "shape", "diameter_mm", "corner_radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
-        if isinstance(flutes, bool) or not isinstance(flutes, int) or flutes < 1:
-            raise ConfigError(prefix + "flutes", f"must be an integer >= 1, got {flutes!r}")
+        if isinstance(flutes, bool) or not isinstance(flutes, int):
+            raise ConfigError(prefix + "flutes", f"must be an integer, got {flutes!r}")
+        _number(flutes, prefix + "flutes")
         tools[int(key)] = _tool_shape(Tool(
             _number(t.get("length_mm", 0.0), prefix + "length_mm"),
             _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm", nonneg=True), flutes,
@@ -213,7 +262,21 @@ def _finishing(table: Any, tools: dict[int, Tool]) -> Finishing:
     target = table.get("roughness_target_um", "isotropic")
     if target != "isotropic":
         target = _number(target, "finishing.roughness_target_um", positive=True)
+        _reachable(tools[tool].ball_radius_mm, pick, target)
     return Finishing(tool, pick, target)
+
+
+def _reachable(ball_mm: float, pick_mm: float, target_um: float) -> None:
+    """A roughness target that the ball and pick feed cannot reach at some feed inclination
+    is refused here, not when the planner first meets it."""
+    import numpy as np
+
+    from ipo.feed.roughness import feed_per_tooth_mm
+
+    try:
+        feed_per_tooth_mm(ball_mm, pick_mm, target_um * 1e-3, np.linspace(0.0, 0.5 * math.pi, 91))
+    except ValueError as err:
+        raise ConfigError("finishing.roughness_target_um", str(err)) from None
 
 
 def _servo(table: Any) -> Servo:
@@ -233,7 +296,8 @@ def _servo(table: Any) -> Servo:
 def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
-           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "stock"}
+           "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
+           "max_loop_iterations", "m99_repeat", "stock"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -256,8 +320,27 @@ def config_from_dict(data: dict) -> MachineConfig:
         finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
         servo=_servo(data.get("servo", {})),
         accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+        **_interpreter_keys(data),
         stock_mm=_stock(data["stock"]) if "stock" in data else None,
     )
+
+
+def _interpreter_keys(data: dict) -> dict:
+    path = data.get("subroutine_path", [])
+    if not isinstance(path, list) or not all(isinstance(p, str) for p in path):
+        raise ConfigError("subroutine_path", f"must be a list of folder names, got {path!r}")
+    limit = data.get("max_loop_iterations", 10_000_000)
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise ConfigError("max_loop_iterations", f"must be a whole number >= 1, got {limit!r}")
+    repeat = data.get("m99_repeat", False)
+    if not isinstance(repeat, bool):
+        raise ConfigError("m99_repeat", f"must be true or false, got {repeat!r}")
+    return {"subroutine_path": tuple(path), "max_loop_iterations": limit, "m99_repeat": repeat}
+
+
+def with_period(config: MachineConfig, period_s: float) -> MachineConfig:
+    """config with another interpolation period, checked like the file's (a command-line override)."""
+    return dataclasses.replace(config, period_s=_number(period_s, "period_s", positive=True))
 
 
 def load_config(path: str | Path) -> MachineConfig:
@@ -267,7 +350,12 @@ def load_config(path: str | Path) -> MachineConfig:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
-    return config_from_dict(data)
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(path), f"not valid TOML: not UTF-8 text (byte {exc.start})") from exc
+    config = config_from_dict(data)
+    # subroutine folders are relative to the machine file, as LinuxCNC's are to its INI file
+    folders = tuple(str(Path(path).parent / p) for p in config.subroutine_path)
+    return dataclasses.replace(config, subroutine_path=folders)
 
 
 def default_config() -> MachineConfig:

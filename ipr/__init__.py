@@ -32,15 +32,14 @@ from __future__ import annotations
 
 import gc
 from collections.abc import Iterable, Iterator
-from itertools import islice
 
 from ipr.entities import Entity, GCodeError, Program
 from ipr.interpreter import Interpreter
 from ipr.modal import Setup
+from ipr.program_counter import Executor
 from ipr.shapes import parse_line
+from ipr.source import Source
 from ipr.syntax import Block, LineSyntaxError, parse_line_full
-
-_CHUNK_LINES = 1024   # iter_entities reads this many lines ahead
 
 __all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "parse_line_full",
            "Block", "LineSyntaxError", "GCodeError", "Program"]
@@ -48,12 +47,14 @@ __all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "
 
 def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool) -> Program:
     interp = Interpreter(file, setup, all_errors)
+    executor = Executor(interp, Source(file, lines))
     # The entity list only grows and holds no cycles: the cyclic collector would rescan
     # it again and again (half the run time on a 200,000-line program).
     gc_was_enabled = gc.isenabled()
     gc.disable()
     try:
-        interp.finish(interp.run(lines))
+        executor.run()
+        interp.finish(executor.last_line)
     finally:
         if gc_was_enabled:
             gc.enable()
@@ -65,7 +66,7 @@ def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool)
 def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
                all_errors: bool = False) -> Program:
     """Interpret a whole program; raises GCodeError with the first error (or all of them)."""
-    return _run(text.removeprefix("\ufeff").split("\n"), file, setup, all_errors)
+    return _run(text.split("\n"), file, setup, all_errors)
 
 
 def parse_file(path, *, setup: Setup | None = None, all_errors: bool = False) -> Program:
@@ -80,16 +81,11 @@ def iter_entities(lines: Iterable[str], file: str = "<string>", *,
                   setup: Setup | None = None) -> Iterator[Entity]:
     """Entities as the lines are read; raises GCodeError at the first error."""
     interp = Interpreter(file, setup, all_errors=False)
+    executor = Executor(interp, Source(file, iter(lines)))
     out = interp.out
-    it = iter(lines)
-    n = 0
-    while not interp.done:
-        chunk = list(islice(it, _CHUNK_LINES))
-        if not chunk:
-            break
-        if n == 0:
-            chunk[0] = chunk[0].removeprefix("\ufeff")
-        n = interp.run(chunk, n + 1)
+    while executor.step():
         yield from out
         out.clear()
-    interp.finish(n)
+    yield from out
+    out.clear()
+    interp.finish(executor.last_line)

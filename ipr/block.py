@@ -27,7 +27,8 @@ G_GROUPS: dict[int, str] = {
 }
 M_GROUPS: dict[int, str] = {0: "stop", 10: "stop", 20: "stop", 300: "stop",
                             30: "spindle", 40: "spindle", 50: "spindle",
-                            70: "coolant", 80: "coolant", 90: "coolant", 60: "toolchange"}
+                            70: "coolant", 80: "coolant", 90: "coolant", 60: "toolchange",
+                            980: "subprogram", 990: "subprogram"}
 _WHY_NOT = {
     280: "return to a stored home position", 281: "storing a home position",
     300: "return to a stored position", 301: "storing a position",
@@ -101,10 +102,13 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
         raise_at = spec.index[letter]
         return BlockError("E-NO-MOTION-MODE", f"axis word {letter} but {what}", raise_at)
     m = motion if moving else None
+    m98 = spec.m.get("subprogram") == 980
+    if m98 and "P" not in spec.index:
+        return BlockError("E-WORD-MISSING", "M98 needs a P word (the subprogram number)", spec.where["subprogram"])
     users = {
         "I": m in (20, 30), "J": m in (20, 30), "K": m in (20, 30, 62), "R": m in (20, 30, 62),
-        "P": nonmodal == 40 or g.get("path") == 640 or m in (20, 30, 52, 62),
-        "Q": g.get("path") == 640 or m == 62, "L": m == 52, "H": g.get("tool_length") == 430,
+        "P": nonmodal == 40 or g.get("path") == 640 or m in (20, 30, 52, 62) or m98,
+        "Q": g.get("path") == 640 or m == 62, "L": m == 52 or m98, "H": g.get("tool_length") == 430,
     }
     for letter, used in users.items():
         if letter in spec.index and not used:

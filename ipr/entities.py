@@ -6,7 +6,8 @@ consumer never sees a program's units or offsets. Feeds are in mm/s.
 
 The types are small, immutable and stable: ipo/ and machine/ depend on them.
 Every item carries `line`, the 1-based source line of the block that produced it
-(for a NURBS group, the line of its first block).
+(for a NURBS group, the line of its first block), and `file`: None for the program
+itself, the path of the subroutine file (ipr.program_counter) for the lines of one.
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ class Rapid:
     start: Vec3
     end: Vec3
     path: PathControl = CONTINUOUS
+    file: str | None = None
 
     feed_mm_s = None
 
@@ -57,6 +59,7 @@ class Line:
     end: Vec3
     feed_mm_s: float
     path: PathControl = CONTINUOUS
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,6 +81,7 @@ class Arc:
     feed_mm_s: float
     turns: int = 0
     path: PathControl = CONTINUOUS
+    file: str | None = None
 
     @property
     def radius_mm(self) -> float:
@@ -116,6 +120,7 @@ class Nurbs:
     points: np.ndarray
     feed_mm_s: float
     path: PathControl = CONTINUOUS
+    file: str | None = None
 
     @property
     def start(self) -> Vec3:
@@ -132,6 +137,7 @@ class Dwell:
 
     line: int
     seconds: float
+    file: str | None = None
 
 
 Motion = Union[Rapid, Line, Arc, Nurbs]
@@ -144,6 +150,7 @@ class Spindle:
     line: int
     rpm: float
     direction: Literal["cw", "ccw"] | None
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,6 +160,7 @@ class Coolant:
     line: int
     mist: bool
     flood: bool
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,6 +169,7 @@ class ToolChange:
 
     line: int
     tool: int
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,6 +178,7 @@ class Message:
 
     line: int
     text: str
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,6 +187,7 @@ class Stop:
 
     line: int
     optional: bool
+    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +195,7 @@ class ProgramEnd:
     """M2 or M30."""
 
     line: int
+    file: str | None = None
 
 
 Event = Union[Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd]

@@ -21,6 +21,12 @@ same table with examples.
 | E-G53                | G53 without G0/G1, or in G91                                             |
 | E-PARAM              | a parameter number out of range, or an unset named parameter read        |
 | E-EXPR               | an expression has no value (division by zero, SQRT of a negative, ...)   |
+| E-EXPR-TOO-DEEP      | an expression nested more than 100 levels (brackets, operators, signs)   |
+| E-OWORD              | an O-word line that is malformed or out of place (endsub without sub,    |
+|                      | else without if, a loop or if never closed, M99 ending the main program) |
+| E-SUB-NOT-FOUND      | a call (o<name> call, M98 P) to a subroutine found in no file            |
+| E-LOOP-LIMIT         | loops ran more iterations than the limit (default 10,000,000)            |
+| E-CALL-DEPTH         | subroutine calls nested deeper than the limit (default 9, as rs274)      |
 | E-ARC-FORMAT         | an arc with both R and I/J/K, neither, or an offset of the wrong plane   |
 | E-ARC-RADIUS         | the arc end point is off the circle through the start point              |
 | E-ARC-R-FULL         | a radius-format arc whose end is its start (a full circle needs I/J/K)   |
@@ -50,6 +56,7 @@ CODES = (
     "E-SYNTAX", "E-WORD-UNSUPPORTED", "E-GCODE-UNSUPPORTED", "E-MCODE-UNSUPPORTED",
     "E-WORD-REPEATED", "E-MODAL-GROUP", "E-AXIS-CONFLICT", "E-WORD-UNUSED", "E-WORD-MISSING",
     "E-VALUE", "E-NO-MOTION-MODE", "E-FEED-ZERO", "E-G53", "E-PARAM", "E-EXPR",
+    "E-EXPR-TOO-DEEP", "E-OWORD", "E-SUB-NOT-FOUND", "E-LOOP-LIMIT", "E-CALL-DEPTH",
     "E-ARC-FORMAT", "E-ARC-RADIUS", "E-ARC-R-FULL", "E-ARC-R-SMALL",
     "E-NURBS-ORDER", "E-NURBS-WEIGHT", "E-NURBS-START", "E-NURBS-KNOT-COUNT",
     "E-NURBS-KNOT-ORDER", "E-NURBS-KNOT-CLAMP", "E-NURBS-KNOT-MULT", "E-NURBS-POINTS",

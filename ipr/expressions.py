@@ -1,7 +1,8 @@
 """Parameters and bracketed expressions (RS274NGC §3.5), evaluated on a parameter table.
 
 Expression trees come from ipr.syntax: a float is a constant; ("#", key) reads a
-parameter (key an int, a lower-case name, or a tree giving the number); ("neg", x);
+parameter (key an int, a lower-case name, or a tree giving the number); ("exists", name);
+("neg", x);
 (op, a, b) for the binary operators (+ - * / mod ** and or xor eq ne gt ge lt le);
 (func, x) for the unary functions; ("atan", y, x). Trigonometry is in degrees.
 """
@@ -10,8 +11,7 @@ from __future__ import annotations
 import math
 
 from ipr.errors import BlockError
-
-MAX_PARAM = 5399
+from ipr.parameters import MAX_PARAM
 _EPS = 1e-12
 
 
@@ -23,7 +23,7 @@ def _check_number(key: float) -> int:
 
 
 def param_key(key, params: dict) -> int | str:
-    """The table key of a parameter reference: an int 1..5399 or a name."""
+    """The table key of a parameter reference: an int 1..MAX_PARAM or a name."""
     if isinstance(key, str):
         return key
     if not isinstance(key, (int, float)):
@@ -31,13 +31,9 @@ def param_key(key, params: dict) -> int | str:
     return _check_number(key)
 
 
-def read_param(key, params: dict) -> float:
-    k = param_key(key, params)
-    if k in params:
-        return params[k]
-    if isinstance(k, str):
-        raise BlockError("E-PARAM", f"named parameter #<{k}> is read before it is set")
-    return 0.0  # numbered parameters start at zero, as in RS274NGC
+def read_param(key, params) -> float:
+    """A parameter's value; `params` is an ipr.parameters.Parameters (unset ones, system values)."""
+    return params[param_key(key, params)]
 
 
 def _unary(name: str, x: float) -> float:
@@ -124,6 +120,8 @@ def _evaluate(node, params: dict) -> float:
         return read_param(node[1], params)
     if head == "neg":
         return -_evaluate(node[1], params)
+    if head == "exists":
+        return params.exists(node[1])
     if head == "atan":
         return math.degrees(math.atan2(_evaluate(node[1], params), _evaluate(node[2], params)))
     if len(node) == 2:

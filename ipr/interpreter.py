@@ -5,6 +5,9 @@ ipr.block checks them against the modal groups (cached per signature), and the b
 is executed on a staged view of the state, committed only if nothing failed. Plain
 G0..G3 blocks run through a function made per line shape (ipr.plain), which hands
 anything unusual back to the general path.
+
+Control lines (O-words, M98, M99) are not executed here: the interpreter stops on them
+(`control` says which, `done` is set) and ipr.program_counter decides where to go on.
 """
 from __future__ import annotations
 
@@ -18,6 +21,8 @@ from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
 from ipr.plain import compile_arc_step, compile_step
 from ipr.modal import ModalState, Setup, Staged
+from ipr.oword import parse_oword
+from ipr.parameters import substitute
 from ipr.shapes import MARK, expression_block, split_parts, template_for
 from ipr.syntax import LineSyntaxError, parse_line_columns
 
@@ -48,6 +53,7 @@ class Interpreter:
         self._percents = 0
         self._started = False   # a block with words has been read (then % no longer opens)
         self.done = False
+        self.control = None      # (line, OWord or ("m98", label, count) / ("m99",)) stopped on
 
     # ---- errors -------------------------------------------------------------------
     def _fail(self, err: BlockError, line: int, text: str) -> None:
@@ -148,7 +154,13 @@ class Interpreter:
             try:
                 block, _ = parse_line_columns(text)
             except LineSyntaxError as e:
-                raise BlockError("E-SYNTAX", e.message, col=e.col) from None
+                oword = parse_oword(text)
+                if oword is None:
+                    raise BlockError(e.code, e.message, col=e.col) from None
+                self._started = True
+                self.control = (line, oword)
+                self.done = True
+                return
         if block.percent:
             # % opens a program on its first line and then closes it; anywhere else it is wrong
             if self._percents == 0 and not self._started:
@@ -163,12 +175,21 @@ class Interpreter:
         if block.delete and self.setup.block_delete:
             return
         params = self.state.params
+        params.line = line
         vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
+        for i, ((letter, _), v) in enumerate(zip(block.words, vals)):
+            if letter in "GM" and not -MAX_VALUE < v < MAX_VALUE:   # before the codes are looked up
+                raise BlockError("E-VALUE", f"{letter} value {v:g} is out of range", i)
         assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+        for key, _ in assigns:
+            params.check_writable(key)
+        messages = block.messages
+        if any(m.__class__ is not str for m in messages):
+            messages = tuple(m if m.__class__ is str else substitute(m[1], params) for m in messages)
         spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
         if spec.__class__ is BlockError:
             raise spec
-        self._execute(spec, vals, assigns, block.messages, line, text)
+        self._execute(spec, vals, assigns, messages, line, text)
 
     def _eval(self, node, word: int) -> float:
         try:
@@ -211,8 +232,12 @@ class Interpreter:
                                   f"line {line} starts another motion", col=1, line=group.line),
                        group.line, "")
             return self._execute(spec, vals, assigns, messages, line, text)
+        control = _subprogram(spec, vals) if "subprogram" in m else None
         execute_block(st, spec, vals, out, notices, line, self.setup, base.motion)
         self._commit(st, out, notices, assigns, line, text)
+        if control is not None and not self.done:
+            self.control = (line, control)
+            self.done = True
 
     def _commit(self, st: Staged, out, notices, assigns, line: int, text: str) -> None:
         st.commit()
@@ -223,3 +248,15 @@ class Interpreter:
             self._notice(code, message, line, text, word, "warning" if code.startswith("W") else "notice")
         if self.state.ended:
             self.done = True
+
+
+def _subprogram(spec: BlockSpec, vals: list) -> tuple:
+    """M98 P<n> [L<count>] -> ("m98", "n", count); M99 -> ("m99",)."""
+    if spec.m["subprogram"] == 990:
+        return ("m99",)
+    idx = spec.index
+    number, count = vals[idx["P"]], vals[idx["L"]] if "L" in idx else 1.0
+    for letter, v in (("P", number), ("L", count)):
+        if v != round(v) or v < 0:
+            raise BlockError("E-VALUE", f"M98 {letter}{v:g} must be a whole number >= 0", idx[letter])
+    return ("m98", str(int(number)), int(count))

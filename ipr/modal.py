@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ipr.entities import CONTINUOUS, PathControl
+from ipr.parameters import Parameters
 
 INCH_MM = 25.4
 ZERO3 = (0.0, 0.0, 0.0)
@@ -23,18 +24,29 @@ class Setup:
     work_offsets_mm: "G54".."G59" -> (x, y, z) machine position of the work zero
     (missing = zero). tool_lengths_mm: tool number -> length for G43 H (missing: a
     warning and a zero offset). block_delete: skip lines starting with "/".
+    subroutine_path: folders searched for `<name>.ngc` subroutine files after the program's
+    own folder. max_loop_iterations: loop iterations allowed over a whole run (E-LOOP-LIMIT).
+    max_call_depth: nested calls allowed (E-CALL-DEPTH; rs274 refuses the 10th level).
+    m99_repeat: M99 in the main program starts it again (Fanuc's endless repeat), else an error.
     """
 
     work_offsets_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
     tool_lengths_mm: dict[int, float] = field(default_factory=dict)
     block_delete: bool = True
+    subroutine_path: tuple[str, ...] = ()
+    max_loop_iterations: int = 10_000_000
+    max_call_depth: int = 9
+    m99_repeat: bool = False
 
     @classmethod
     def from_machine(cls, config) -> Setup:
         """The Setup of a machine configuration (ipo.config.MachineConfig, duck-typed:
-        `work_offsets_mm` and `tools` with `length_mm`)."""
+        `work_offsets_mm` and `tools` with `length_mm`; the interpreter keys if it has them)."""
         return cls(work_offsets_mm=dict(config.work_offsets_mm),
-                   tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()})
+                   tool_lengths_mm={n: t.length_mm for n, t in config.tools.items()},
+                   subroutine_path=tuple(getattr(config, "subroutine_path", ())),
+                   max_loop_iterations=getattr(config, "max_loop_iterations", 10_000_000),
+                   m99_repeat=getattr(config, "m99_repeat", False))
 
     def work_offset(self, code10: int) -> tuple[float, float, float]:
         name = f"G{code10 // 10}"
@@ -76,7 +88,7 @@ class ModalState:
         self.mist = False
         self.flood = False
         self.nurbs = None
-        self.params: dict = {}
+        self.params = Parameters(self, setup)
         self.ended = False
         self.program_number: int | None = None
 

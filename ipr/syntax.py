@@ -20,7 +20,9 @@ class Block(NamedTuple):
         (see ipr.expressions) where the line uses brackets, parameters or functions.
     assigns: (parameter, value) for each `#n=...`; parameter is an int, a lower-case
         name without blanks, or an expression tree for `#[...]`/`##n`.
-    messages: the text of each (MSG, ...) comment. Other comments are dropped.
+    messages: the text of each (MSG, ...) comment, and ("debug", text) for each (DEBUG, ...) or
+        (PRINT, ...) comment, whose #-references are substituted when the block runs.
+        Other comments are dropped.
     delete: the line starts with "/" (block delete). percent: the line is "%".
     """
 
@@ -32,12 +34,36 @@ class Block(NamedTuple):
 
 
 class LineSyntaxError(Exception):
-    """A line the grammar rejects; `col` is 1-based."""
+    """A line the grammar rejects; `col` is 1-based; `code` the error code (E-SYNTAX, or
+    E-EXPR-TOO-DEEP for an expression nested deeper than MAX_EXPR_DEPTH)."""
 
-    def __init__(self, col: int, message: str):
+    def __init__(self, col: int, message: str, code: str = "E-SYNTAX"):
         super().__init__(message)
         self.col = col
         self.message = message
+        self.code = code
+
+
+# Expression trees deeper than this are refused: evaluation recurses once per level (rs274 refuses
+# lines over 256 characters, which bounds its expressions at about 120 levels)
+MAX_EXPR_DEPTH = 100
+
+
+def expression_depth(node) -> int:
+    """Levels of an expression tree (0 for a number), counted without recursion."""
+    depth, stack = 0, [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        if n.__class__ is tuple:
+            depth = max(depth, d)
+            stack.extend((child, d + 1) for child in n[1:])
+    return depth
+
+
+class _TooDeep(Exception):
+    def __init__(self, column: int, depth: int):
+        self.column = column
+        self.depth = depth
 
 
 MAX_DIGITS = 30   # longer numbers take the full grammar, which rejects non-finite ones
@@ -87,6 +113,9 @@ class _ToBlock(Transformer):
     def atan(self, items):
         return ("atan", items[1], items[2])
 
+    def exists(self, items):
+        return ("exists", items[-1][1])
+
     def binary(self, items):
         a, op, b = items
         return (op.lower(), a, b)
@@ -106,6 +135,8 @@ class _ToBlock(Transformer):
 
     def word(self, items):
         letter = items[0]
+        if items[1].__class__ is tuple:
+            _check_depth(items[1], letter.column)
         return ("word", letter.upper(), items[1], letter.column)
 
     def line_number(self, items):
@@ -114,12 +145,18 @@ class _ToBlock(Transformer):
 
     def assignment(self, items):
         target, value = items[0], items[-1]
+        for tree in (target, value):
+            if tree.__class__ is tuple:
+                _check_depth(tree, 1)
         key = target[1]
         return ("assign", key, value, None)
 
     def message(self, items):
-        text = items[0][1:-1]
-        return ("msg", text.split(",", 1)[1].strip(), None, items[0].column)
+        kind, text = items[0][1:-1].split(",", 1)
+        text = text.strip()
+        if kind.strip().lower() != "msg":
+            text = ("debug", text)
+        return ("msg", text, None, items[0].column)
 
     def block_delete(self, items):
         return ("delete", None, None, None)
@@ -143,6 +180,12 @@ class _ToBlock(Transformer):
             else:
                 delete = True
         return Block(tuple(words), tuple(assigns), tuple(msgs), delete), tuple(cols)
+
+
+def _check_depth(tree, column: int) -> None:
+    depth = expression_depth(tree)
+    if depth > MAX_EXPR_DEPTH:
+        raise _TooDeep(column, depth)
 
 
 class _ToTemplate(_ToBlock):
@@ -177,7 +220,26 @@ def parse_template(text: str, slot_starts: list[int]) -> Block:
     return _parse(_TEMPLATE_PARSER, text)[0]
 
 
+def _bracket_depth(text: str) -> tuple[int, int]:
+    """The deepest nesting of "[" in a line, and the column where it first passes MAX_EXPR_DEPTH."""
+    depth = deepest = col = 0
+    for i, c in enumerate(text):
+        if c == "[":
+            depth += 1
+            deepest = max(deepest, depth)
+            if depth == MAX_EXPR_DEPTH + 1 and not col:
+                col = i + 1
+        elif c == "]":
+            depth -= 1
+    return deepest, col
+
+
 def _parse(parser: Lark, text: str) -> tuple[Block, tuple[int, ...]]:
+    if text.count("[") > MAX_EXPR_DEPTH:
+        depth, col = _bracket_depth(text)
+        if depth > MAX_EXPR_DEPTH:
+            raise LineSyntaxError(col, f"brackets nested {depth} deep (at most {MAX_EXPR_DEPTH})",
+                                  "E-EXPR-TOO-DEEP")
     try:
         return parser.parse(text.rstrip("\r\n"))
     except UnexpectedCharacters as e:
@@ -191,6 +253,9 @@ def _parse(parser: Lark, text: str) -> tuple[Block, tuple[int, ...]]:
         raise LineSyntaxError(getattr(e, "column", 1) or 1, "syntax error") from None
     except _NumberTooLarge as e:  # raised by the transformer, which runs inside the parse
         raise LineSyntaxError(e.token.column, f"number {str(e.token)[:20]}... is too large") from None
+    except _TooDeep as e:
+        raise LineSyntaxError(e.column, f"expression nested {e.depth} levels deep (at most {MAX_EXPR_DEPTH})",
+                              "E-EXPR-TOO-DEEP") from None
 
 
 def parse_line_full(text: str) -> Block:

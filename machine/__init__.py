@@ -1,0 +1,13 @@
+"""machine — the receivers of ipo's period stream, and the `vcnc` command line.
+
+- `controller`: checks a whole program, then runs it through ipo.feed into the drive.
+- `drive`, `servo`, `extents`: the simulated drive (limits, statistics, servo lag) and the
+  travel check of the whole path.
+- `realtime`: pacing at the interpolation period, with hold, override and stop.
+- `trace`, `plot`: per-period recording and its plots.
+- `grbl/`: the link to a grbl 1.1 board (NURBS sent as planned G1 segments).
+- `increments/`: the increment protocol, its link and a receiver.
+- `cli`, `commands/`: the `vcnc` command line, one module per subcommand.
+
+May import: ipo, ipr. Nothing imports machine.
+"""

@@ -3,7 +3,7 @@
 `check` interprets the whole file with every error collected (ipr, all_errors) and
 checks the travel limits of the whole path; any problem refuses the run with every
 reason and its line, before a single period moves. `run` streams the program
-through the feed stage and interpolators (ipo.feed.plan_periods) into the
+through the feed stage and interpolators (ipo.feed.planner.plan_periods) into the
 simulated drive, either as fast as possible or paced in real time (machine.realtime),
 and handles the program's events: dwell (standing-still periods from the feed stage),
 M0 and M1 (pause; the operator resumes or stops), M2/M30 (end), messages, spindle,
@@ -19,8 +19,9 @@ from typing import Callable
 
 import numpy as np
 
-from ipo.nurbs_split import planning_problem
-from ipo.period import PeriodBatch
+from ipo.feed.split import planning_problem
+from ipo.contracts import PeriodBatch
+from ipo.errors import IpoError
 from ipr import Setup, parse_file
 from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
@@ -53,7 +54,7 @@ class RunResult:
     position_mm: list[float]
     cycle_time_s: float
     periods: int
-    blocks: int
+    motions: int  # motion entities (a NURBS group of many blocks is one); compare counts blocks
     path_length_mm: float
     max_axis_velocity_mm_s: list[float]
     max_axis_accel_mm_s2: list[float]
@@ -98,7 +99,7 @@ class Controller:
         self.on_program_stop = on_program_stop
         self.on_event = on_event
         self.limits = DriveLimits.from_config(config)
-        self.planner = planner  # plan_periods's signature; None = ipo.feed.plan_periods
+        self.planner = planner  # plan_periods's signature; None = ipo.feed.planner.plan_periods
         self.check_s = 0.0
 
     def check(self, path: str | Path) -> Program:
@@ -133,7 +134,7 @@ class Controller:
     def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
         if self.planner is None:
-            from ipo.feed import plan_periods
+            from ipo.feed.planner import plan_periods
             self.planner = plan_periods
         drive = self.make_drive(program)
         drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time
@@ -191,8 +192,9 @@ class Controller:
             state = "interrupted"
         except TravelLimitError as err:
             state, fault = "fault", str(err)
-        except ValueError as err:  # the planner refused a block the checks let through: stop, say why
-            state, fault = "fault", f"the planner stopped at line {drive.line}: {err}"
+        except IpoError as err:  # the planner refused a block the checks let through: stop, say why
+            state, fault = "fault", (f"the planner stopped at line {drive.line if err.line is None else err.line}: "
+                                     f"error[{err.code}]: {err.message}")
         finally:
             stream.close()
             if player is not None:
@@ -207,7 +209,7 @@ class Controller:
         return RunResult(
             file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
             cycle_time_s=sim, periods=st.periods,
-            blocks=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
+            motions=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
             path_length_mm=st.path_length_mm,
             max_axis_velocity_mm_s=[round(float(v), 4) for v in st.max_velocity_mm_s],
             max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],

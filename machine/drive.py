@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ipo.period import PeriodBatch
+from ipo.contracts import PeriodBatch
 from machine.servo import ServoModel
 
 AXES = "XYZ"

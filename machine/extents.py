@@ -3,21 +3,30 @@
 Lines and rapids span their end points. Arcs are exact: the in-plane extremes are
 the end points plus every quarter point (0°, 90°, 180°, 270° about the centre) the
 sweep passes, and the helix axis spans its start and end. A NURBS curve lies in the
-box of its control points (convex hull property); only when that box leaves the
-travel is the curve itself sampled densely (SAMPLES_PER_SPAN per knot span), so
-the reported extent of such a curve is exact to the sampling's sagitta.
+box of its control points (convex hull property, weights > 0); where that box leaves
+the travel, the extreme on that side is bounded exactly, not sampled: each knot span
+whose own control points leave the travel is a rational Bezier segment, whose control
+points bound it and whose end points lie on it, and the segment with the highest bound
+is halved (de Casteljau in homogeneous coordinates) until the attained extreme and the
+bound agree to EXTREME_TOL_MM or the limit lies outside them (branch and bound). A
+sharp peak between any samples is found; a curve that takes more than
+MAX_SUBDIVISIONS halvings to decide is reported by its bound (refused, not risked).
 """
 from __future__ import annotations
 
+import heapq
 import math
-from itertools import chain
+from itertools import chain, count
 
 import numpy as np
 
-from ipo.nurbs import curve_points
+from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
-SAMPLES_PER_SPAN = 256
+# the extreme of a NURBS is decided to this (far below any BLU; well above rounding at 1e4 mm)
+EXTREME_TOL_MM = 1e-9
+# halvings per curve side before the check gives up and takes the bound (a degenerate weight set)
+MAX_SUBDIVISIONS = 20000
 
 
 def arc_extent(arc: Arc) -> tuple[np.ndarray, np.ndarray]:
@@ -41,16 +50,70 @@ def arc_extent(arc: Arc) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
+def _halves(pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A rational Bezier segment's homogeneous control points split at t = 1/2 (de Casteljau)."""
+    rows, left, right = pw, [pw[0]], [pw[-1]]
+    while len(rows) > 1:
+        rows = 0.5 * (rows[:-1] + rows[1:])
+        left.append(rows[0])
+        right.append(rows[-1])
+    return np.array(left), np.array(right[::-1])
+
+
+def _bezier_segments(curve: Nurbs, axis: int, sign: float, limit: float) -> list[np.ndarray]:
+    """Homogeneous control points of the knot spans whose own control points pass `limit`
+    on the side `sign` of `axis` (only they can: each span lies in the hull of its p+1 points)."""
+    p, knots = int(curve.degree), np.asarray(curve.knots, dtype=float)
+    spans = [k for k in range(p, len(knots) - p - 1) if knots[k] < knots[k + 1]]
+    out = []
+    for k in spans:
+        if np.max(sign * curve.points[k - p:k + 1, axis]) <= sign * limit:
+            continue
+        seg = sub_curve(curve, float(knots[k]), float(knots[k + 1]))
+        out.append(np.column_stack([seg.points * seg.weights[:, None], seg.weights]))
+    return out
+
+
+def curve_extreme(curve: Nurbs, axis: int, sign: float, limit: float) -> float:
+    """The curve's extreme of coordinate `axis` (sign +1: max, -1: min), exact to EXTREME_TOL_MM
+    where it may pass `limit`, else a value within `limit`. Branch and bound over rational
+    Bezier segments (module docstring); undecided after MAX_SUBDIVISIONS, the bound."""
+    def bound(pw):  # control points bound the segment, its end points are on it
+        v = sign * pw[:, axis] / pw[:, 3]
+        return float(v.max()), float(max(v[0], v[-1]))
+
+    order = count()
+    heap, best = [], -math.inf
+    for pw in _bezier_segments(curve, axis, sign, limit):
+        upper, attained = bound(pw)
+        best = max(best, attained)
+        heapq.heappush(heap, (-upper, next(order), pw))
+    if not heap:
+        return limit
+    for _ in range(MAX_SUBDIVISIONS):
+        if heap[0][0] > -best - EXTREME_TOL_MM:  # every remaining bound within the tolerance
+            return sign * best
+        _, _, pw = heapq.heappop(heap)
+        for half in _halves(pw):
+            up, att = bound(half)
+            best = max(best, att)
+            if up > best:
+                heapq.heappush(heap, (-up, next(order), half))
+        if not heap:
+            return sign * best
+    upper = -heap[0][0]
+    return sign * (best if best > sign * limit else upper)  # undecided near the limit: refused
+
+
 def nurbs_extent(curve: Nurbs, lo_mm: np.ndarray, hi_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The control-point box if it fits the travel, else the box of a dense sampling."""
-    lo, hi = curve.points.min(axis=0), curve.points.max(axis=0)
-    if np.all(lo >= lo_mm) and np.all(hi <= hi_mm):
-        return lo, hi
-    breaks = np.unique(curve.knots[curve.degree:len(curve.knots) - curve.degree])
-    t = np.linspace(0.0, 1.0, SAMPLES_PER_SPAN + 1)
-    u = np.unique((breaks[:-1, None] + np.diff(breaks)[:, None] * t[None, :]).ravel())
-    pts = curve_points(curve.degree, curve.knots, curve.weights, curve.points, u)
-    return pts.min(axis=0), pts.max(axis=0)
+    """The control-point box, each side that leaves the travel replaced by the curve's exact extreme."""
+    lo, hi = curve.points.min(axis=0).copy(), curve.points.max(axis=0).copy()
+    for i in range(3):
+        if hi[i] > hi_mm[i]:
+            hi[i] = curve_extreme(curve, i, 1.0, hi_mm[i])
+        if lo[i] < lo_mm[i]:
+            lo[i] = curve_extreme(curve, i, -1.0, lo_mm[i])
+    return lo, hi
 
 
 def _arcs_near_the_limits(arcs: list[Arc], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Arc]:

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
-from ipo.period import LIMIT_NAMES  # noqa: E402
+from ipo.contracts import LIMIT_NAMES  # noqa: E402
 from machine.trace import Trace  # noqa: E402
 
 MAX_POINTS = 4000

@@ -31,7 +31,7 @@ import time
 import numpy as np
 from numba import njit
 
-from ipo.period import LIMIT_DWELL, PeriodBatch
+from ipo.contracts import LIMIT_DWELL, PeriodBatch
 
 CHUNK_S = 0.02  # periods produced per wake-up
 LEAD_S = 0.1  # how far ahead of the drive the player works

@@ -71,7 +71,9 @@ class MemoryTrace:
             self._parts.setdefault(name, []).append(np.array(arr, copy=True))
 
     def close(self) -> Trace:
-        cols = {name: np.concatenate(parts) for name, parts in self._parts.items()}
+        """The trace; with no period written (nothing moved), the columns are there and empty."""
+        empty = {name: [np.empty((0, w) if w > 1 else 0, dtype)] for name, dtype, w in COLUMNS}
+        cols = {name: np.concatenate(parts) for name, parts in (empty | self._parts).items()}
         return Trace(cols, dict(self.meta))
 
 

@@ -145,7 +145,7 @@ def main() -> None:
     g01 = finishing_program()
     (HERE / "finish_g01.nc").write_text(g01)
     sys.path.insert(0, str(HERE.parent))
-    from machine.convert import convert_text
+    from ipo.fit.convert import convert_text
 
     nurbs, report = convert_text(g01, FIT_TOL_MM, file="finish_g01.nc")
     header = (f"(finish_nurbs: finish_g01.nc with its G01 runs fitted by vcnc fit --tol-mm {FIT_TOL_MM:g}:"

@@ -17,12 +17,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ipo import lookahead as la
-from ipo.feed import ACCEL_USE, plan_periods
-from ipo.limits import STEP_JERK_SHARE, curvature_cap, spread_min
-from ipo.period import PeriodBatch
-from ipo.sampling import nurbs_table
-from ipo.scurve import MovingAverage
+from ipo.feed import lookahead as la
+from ipo.feed.planner import ACCEL_USE, plan_periods
+from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap, spread_min
+from ipo.contracts import PeriodBatch
+from ipo.feed.sampling import nurbs_table
+from ipo.feed.scurve import MovingAverage
 from tests.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
 from tests.test_nurbs_corners import random_cubic
 

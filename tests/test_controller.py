@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from ipo.period import PeriodBatch
+from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Line, Nurbs, Rapid
 from machine.drive import Drive, DriveLimits
 from machine.extents import arc_extent, nurbs_extent, travel_violations
@@ -158,7 +158,7 @@ def test_late_production_counts_deadline_misses():
     assert 0 < player.deadline_misses <= drive.stats.periods
 
 
-# --- whole runs against a synthetic planner (the contract of ipo.feed.plan_periods) ---
+# --- whole runs against a synthetic planner (the contract of ipo.feed.planner.plan_periods) ---
 
 def fake_planner(items):
     def planner(entities, config, *, method, feed_override, start_mm):
@@ -201,7 +201,7 @@ def test_run_handles_messages_stops_and_program_end():
     assert result.cycle_time_s == pytest.approx(0.4)
     assert result.path_length_mm == pytest.approx(math.hypot(20, 10), abs=1e-3)
     assert result.deadline_misses is None and result.max_contour_error_um is None
-    assert result.summary()["blocks"] == 1
+    assert result.summary()["motions"] == 1
 
 
 def test_answering_stop_at_m0_ends_the_run_there():
@@ -232,9 +232,17 @@ def test_a_travel_fault_during_the_run_is_reported_not_raised():
 
 
 def test_a_planner_refusal_during_the_run_is_a_fault_not_a_crash():
-    items = shifted(line_stream(10.0, size=50), 21)[:2] + [ValueError("line 21: something the checks missed")]
+    from ipo.errors import NURBS_PATH, IpoError
+    items = shifted(line_stream(10.0, size=50), 21)[:2] + [IpoError(NURBS_PATH, "something the checks missed", 23)]
     result = controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
-    assert result.state == "fault" and "something the checks missed" in result.fault and result.periods == 100
+    assert result.state == "fault" and result.periods == 100
+    assert result.fault == "the planner stopped at line 23: error[E-NURBS-PATH]: something the checks missed"
+
+
+def test_a_bug_in_the_planner_is_not_taken_for_a_refusal():
+    items = shifted(line_stream(10.0, size=50), 21)[:2] + [ValueError("an index out of range")]
+    with pytest.raises(ValueError, match="an index out of range"):
+        controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
 
 
 def test_a_nurbs_the_planner_cannot_walk_is_rejected_before_anything_moves(tmp_path):

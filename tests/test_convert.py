@@ -8,8 +8,8 @@ from click.testing import CliRunner
 
 from ipr import Setup, parse_text
 from ipr.entities import GCodeError, Line, Nurbs
-from ipo.nurbs import curve_points
-from machine.convert import convert_text, count_blocks
+from ipo.nurbs.kernel import curve_points
+from ipo.fit.convert import convert_text, count_blocks
 
 
 def _ellipse_run(n=120, a=12.0, b=5.0, z=-1.0, digits=4, scale=1.0, sweep=np.pi):
@@ -162,7 +162,7 @@ def test_vcnc_fit_command(tmp_path):
 
 
 def test_split_runs_breaks_at_corners_feed_and_other_entities():
-    from ipo.g01_runs import split_runs
+    from ipo.fit.g01_runs import split_runs
     from ipr.entities import Rapid
 
     def line(n, a, b, f=10.0):

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from ipo.period import LIMIT_CURVATURE, PeriodBatch
+from ipo.contracts import LIMIT_CURVATURE, PeriodBatch
 from machine.drive import CommandMismatchError, Drive, DriveLimits, TravelLimitError, chord_errors_mm
 from machine.servo import ServoModel
 from machine.trace import MemoryTrace, load_trace, open_writer

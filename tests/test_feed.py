@@ -9,9 +9,9 @@ import pytest
 from scipy.interpolate import BSpline
 
 from ipo.config import Finishing, default_config
-from ipo.feed import ACCEL_USE, FeedPlanner, plan_periods
+from ipo.feed.planner import ACCEL_USE, FeedPlanner, plan_periods
 from ipr import iter_entities, parse_text
-from ipo.period import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
+from ipo.contracts import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_ROUGHNESS, PeriodBatch
 from ipr.entities import (EXACT_STOP, MOTION_TYPES, Arc, Dwell, Line, Message, Nurbs, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop)
 
@@ -293,7 +293,7 @@ def test_corner_blend_next_to_an_arc_stays_within_p():
 
 
 def test_moving_average_keeps_the_distance_and_ramps():
-    from ipo.scurve import MovingAverage
+    from ipo.feed.scurve import MovingAverage
 
     f = MovingAverage.for_limits(np.array([1000.0] * 3), np.array([1e5] * 3), 1e-3)
     assert f.m == 10
@@ -387,3 +387,11 @@ def test_nurbs_brakes_into_an_unblended_corner_at_the_end():
     a = A[0] * ACCEL_USE
     assert length / F + F / A[0] - 2 * T <= t_curve <= length / F + F / (2 * a) + F / a + 4 * T, t_curve
     assert_within_limits(out["pos_mm"], start)
+
+
+def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_its_code_and_line():
+    from ipo.errors import START, IpoError
+    with pytest.raises(IpoError) as info:
+        list(plan_periods([Line(3, (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 10.0)], default_config()))
+    assert (info.value.code, info.value.line) == (START, 3)
+    assert str(info.value) == "line 3: motion starts at [1.0, 0.0, 0.0] but the machine stands at [0.0, 0.0, 0.0]"

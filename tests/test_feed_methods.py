@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from ipo.config import ConfigError, load_config
-from ipo.feed import plan_periods
-from ipo.period import PeriodBatch
+from ipo.feed.planner import plan_periods
+from ipo.contracts import PeriodBatch
 from tests.test_nurbs_blend import CFG, assert_forward_to_the_end, assert_within_limits
 from tests.test_nurbs_corners import random_cubic
 

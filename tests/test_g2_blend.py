@@ -1,4 +1,4 @@
-"""S-curve mode's curvature-continuous corner blends between lines (ipo.g2_blend), against
+"""S-curve mode's curvature-continuous corner blends between lines (ipo.feed.blends.curvature_continuous), against
 independent references: the quintic sampled through scipy's BSpline, curvature from the
 circle through three sampled points, distances by brute force, limits by finite
 differences of the per-period positions; trapezoid mode against the circular-blend rule."""
@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from ipo.feed import FeedPlanner
-from ipo.g2_blend import arc_blend_x, g2_corner_x
-from ipo.period import PeriodBatch
-from ipo.pieces import KIND_ANALYTIC, KIND_BLEND, Motion, build
-from ipo.sampling import ARC_TOL_MM, nurbs_table
+from ipo.feed.planner import FeedPlanner
+from ipo.feed.blends.curvature_continuous import arc_blend_x, g2_corner_x
+from ipo.contracts import PeriodBatch
+from ipo.feed.pieces import KIND_ANALYTIC, KIND_BLEND, Motion, build
+from ipo.feed.sampling import ARC_TOL_MM, nurbs_table
 from ipr.entities import Line, PathControl
 from tests.test_feed import FINE
 
@@ -179,7 +179,7 @@ def test_caps_used_to_choose_match_the_planned_speed():
 
 
 def test_quintic_table_and_points_by_arc_length_against_scipy():
-    """The compiled quintic path (ipo.blend_jit via nurbs_table / points_at): arc length and
+    """The compiled quintic path (ipo.feed.blends.compiled via nurbs_table / points_at): arc length and
     points at given arc lengths against scipy's BSpline integrated on a dense grid."""
     pc, drivers = build_corner(corner(70, 0.05), g2_limits=G2_ANY, min_blend_radius_mm=NO_ARC)
     e = drivers[int(pc.nurbs[1])].entity

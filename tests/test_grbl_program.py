@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from ipo.config import default_config
-from ipo.nurbs import curve_points
-from ipo.period import PeriodBatch
+from ipo.nurbs.kernel import curve_points
+from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Coolant, Line, Nurbs, ProgramEnd, Rapid, Spindle, ToolChange
 from machine.grbl import protocol as P
 from machine.grbl.program import StreamLine, StreamProgramError, merge_polyline, resume_text, stream_lines

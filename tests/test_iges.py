@@ -17,11 +17,11 @@ import pytest
 import pyiges
 from geomdl import NURBS
 
-from ipo.iges import IgesError, RationalCurve, iges_text, read_surfaces, real, write_iges
-from ipo.nurbs import curve_points
-from ipo.section_fit import fit_shared
-from ipo.skinning import skin
-from ipo.surface import grid, surface_points
+from ipo.surface.iges import IgesError, RationalCurve, iges_text, read_surfaces, real, write_iges
+from ipo.nurbs.kernel import curve_points
+from ipo.surface.section_fit import fit_shared
+from ipo.surface.skinning import skin
+from ipo.surface.evaluation import grid, surface_points
 from surface_cases import geomdl_surface
 from surface_cases import bump, cylinder
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from ipo.config import default_config
-from ipo.feed import plan_periods
+from ipo.feed.planner import plan_periods
 from ipr import parse_file
 from machine.drive import Drive, DriveLimits
 from machine.increments import frames as F

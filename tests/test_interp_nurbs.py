@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import corpus_files
-from ipo import nurbs
-from ipo.line_arc import ArcStepper, LineStepper
-from ipo.steppers import make_stepper
-from ipo.taylor import taylor_delta_u
+from ipo.nurbs import kernel as nurbs
+from ipo.interp.line_arc import ArcStepper, LineStepper
+from ipo.interp.steppers import make_stepper
+from ipo.interp.taylor import taylor_delta_u
 from ipr.entities import Arc, Line, Nurbs, Rapid
 
 METHODS = ["recursive", "taylor1", "taylor2", "constant-du"]

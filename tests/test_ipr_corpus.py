@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,9 @@ from conftest import corpus_files, require_corpus
 
 import ipr
 from ipr.entities import MOTION_TYPES, Nurbs
+
+# the CLI of the interpreter running the tests, never a `vcnc` that happens to be on PATH
+VCNC = [sys.executable, "-m", "machine.cli"]
 
 # First block of a NURBS group: G5.2, or a G6.2 that is not one of the closing knot-only blocks.
 _GROUP_START = re.compile(r"^\s*G0?(5\.2|6\.2(?!\s*K))", re.IGNORECASE)
@@ -128,9 +132,9 @@ def test_streaming_equals_whole_file(name: str) -> None:
 
 def test_cli_parse_small_program() -> None:
     path = require_corpus() / "g5_nurbs_xy.ngc"
-    done = subprocess.run(["vcnc", "parse", str(path)], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([*VCNC, "parse", str(path)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
-    done = subprocess.run(["vcnc", "parse", "--json", str(path)], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([*VCNC, "parse", "--json", str(path)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     items = json.loads(done.stdout)
     kinds = [i["kind"] for i in items]
@@ -146,6 +150,6 @@ def test_cli_parse_small_program() -> None:
 def test_cli_parse_reports_an_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.ngc"
     bad.write_text("G21\nG1 X1 F100\nG1 X2 Q\n")
-    done = subprocess.run(["vcnc", "parse", str(bad)], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([*VCNC, "parse", str(bad)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 1
     assert re.search(rf"{re.escape(str(bad))}:3:\d+: error\[[A-Z0-9-]+\]: ", done.stderr), done.stderr

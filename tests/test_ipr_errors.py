@@ -16,7 +16,7 @@ CASES = [
     ("G0 X1\n  G41 X2", "E-GCODE-UNSUPPORTED", 2, 3),
     ("G93 G1 X1 F1", "E-GCODE-UNSUPPORTED", 1, 1),
     ("G0 X1\nG28", "E-GCODE-UNSUPPORTED", 2, 1),
-    ("G0 X1 M99", "E-MCODE-UNSUPPORTED", 1, 7),
+    ("G0 X1 M77", "E-MCODE-UNSUPPORTED", 1, 7),
     ("G0 X1 X2", "E-WORD-REPEATED", 1, 7),
     ("G0 G1 X1", "E-MODAL-GROUP", 1, 4),
     ("G17 G18", "E-MODAL-GROUP", 1, 5),
@@ -44,6 +44,19 @@ CASES = [
     ("G0 X#6000", "E-PARAM", 1, 4),
     ("G0 X[1/0]", "E-EXPR", 1, 4),
     ("G0 X0 Y[SQRT[-1]]", "E-EXPR", 1, 7),
+    ("G0 X[" + "-" * 196 + "#1]", "E-EXPR-TOO-DEEP", 1, 4),
+    ("G0 X1\nG0 X[" + "+".join(["1"] * 196) + "]", "E-EXPR-TOO-DEEP", 2, 4),
+    ("G0 X" + "[" * 1000 + "1" + "]" * 1000, "E-EXPR-TOO-DEEP", 1, 105),
+    ("G0 X1\no1 if [" + "[" * 200 + "1" + "]" * 200 + "]", "E-EXPR-TOO-DEEP", 2, 107),
+    ("G0 X1\no100 endsub", "E-OWORD", 2, 1),
+    ("o1 if [1]\nG0 X1\no1 endwhile", "E-OWORD", 3, 1),
+    ("o1 while [0]\nG0 X1", "E-OWORD", 1, 1),
+    ("G0 X1\no1 frob", "E-OWORD", 2, 4),
+    ("G0 X1\nM99", "E-OWORD", 2, 1),
+    ("G0 X1\n  o<nowhere> call [1]", "E-SUB-NOT-FOUND", 2, 1),
+    ("M98 P77", "E-SUB-NOT-FOUND", 1, 1),
+    ("G0 X0\no1 repeat [20000000]\nG0 X1\no1 endrepeat", "E-LOOP-LIMIT", 2, 1),
+    ("o<r> sub\nG0 X1\no<r> call\no<r> endsub\no<r> call", "E-CALL-DEPTH", 3, 1),
     ("F100 G2 X1 Y1 R1 I1", "E-ARC-FORMAT", 1, 15),
     ("F100 G2 X1 Y1", "E-ARC-FORMAT", 1, 6),
     ("F100 G2 X1 Y1 K1", "E-ARC-FORMAT", 1, 15),
@@ -112,7 +125,7 @@ def test_incomplete_group_names_its_first_line():
 
 
 def test_all_errors_collects_every_error_and_continues():
-    text = "G0 X1\nG41 X2\nG1 X3\nG0 Y4 Y5\nF100 G1 X6\nM99\n"
+    text = "G0 X1\nG41 X2\nG1 X3\nG0 Y4 Y5\nF100 G1 X6\nM77\n"
     with pytest.raises(GCodeError) as info:
         ipr.parse_text(text, "p.nc", all_errors=True)
     got = [(d.line, d.code) for d in info.value.diagnostics]

@@ -8,7 +8,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ipr.entities import Arc, Line, Rapid
-from ipo.line_arc import ArcStepper, LineStepper
+from ipo.interp.line_arc import ArcStepper, LineStepper
 
 GEOM_TOL_MM = 1e-9
 

@@ -15,9 +15,9 @@ from scipy.interpolate import BSpline
 from scipy.spatial import cKDTree
 
 from ipo.config import default_config
-from ipo.feed import plan_periods
-from ipo.period import PeriodBatch
-from ipo.subcurve import sub_curve
+from ipo.feed.planner import plan_periods
+from ipo.contracts import PeriodBatch
+from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import EXACT_STOP, Arc, Line, Message, Nurbs, PathControl
 
 BASE = default_config()

@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ipo.feed import plan_periods
-from ipo.nurbs_split import corner_knots, corner_parts
-from ipo.period import PeriodBatch
+from ipo.feed.planner import plan_periods
+from ipo.feed.split import corner_knots, corner_parts
+from ipo.contracts import PeriodBatch
 from ipr import parse_text
 from ipr.entities import EXACT_STOP, Line, Message, Nurbs, PathControl
 from tests.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
@@ -232,7 +232,7 @@ def test_arc_length_readback_against_quadrature():
     from scipy.integrate import quad
     from scipy.interpolate import BSpline
 
-    from ipo.sampling import nurbs_table
+    from ipo.feed.sampling import nurbs_table
 
     e = corner_parts(random_c0_curve(71, G64P))[0]
     w = np.asarray(e.weights, float)

@@ -7,8 +7,8 @@ import pytest
 from geomdl import NURBS
 from scipy.interpolate import BSpline
 
-from ipo import nurbs
-from ipo import nurbs_jit as nj
+from ipo.nurbs import kernel as nurbs
+from ipo.nurbs import compiled as nj
 
 FIG1_KNOTS = np.array([0, 0, 0, 1, 2, 3, 4, 4, 5, 5, 5], dtype=float)
 

@@ -7,10 +7,10 @@ import pytest
 from scipy.spatial import cKDTree
 
 from ipr.entities import Arc, Nurbs
-from ipo.line_arc import ArcStepper
-from ipo.nurbs import curve_points
-from ipo.reference_pulse import pulse_deviation_blu, pulse_path, pulses
-from ipo.reference_word import axis_velocities, quantise
+from ipo.interp.line_arc import ArcStepper
+from ipo.nurbs.kernel import curve_points
+from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
+from ipo.interp.reference_word import axis_velocities, quantise
 
 BLU_MM = 1e-3
 

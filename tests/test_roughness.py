@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from ipo import roughness as rg
+from ipo.feed import roughness as rg
 
 R, FP, TARGET, Z, S = 3.0, 0.2, 0.0033, 2, 12500.0
 
@@ -55,5 +55,7 @@ def test_isotropic_target_and_conventional_model():
 
 
 def test_unreachable_target_is_an_error():
-    with pytest.raises(ValueError, match="roughness target"):
+    from ipo.errors import ROUGHNESS_TARGET, IpoError
+    with pytest.raises(IpoError, match="roughness target") as info:
         rg.feed_per_tooth_mm(R, FP, 1e-7, np.radians(45))
+    assert info.value.code == ROUGHNESS_TARGET

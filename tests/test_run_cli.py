@@ -39,7 +39,7 @@ def test_demo_runs_along_the_programmed_path(tmp_path):
     r = vcnc("run", DEMO, "--json")
     assert r.exit_code == 0, r.stderr
     s = summary(r)
-    assert s["state"] == "completed" and s["blocks"] == 8
+    assert s["state"] == "completed" and s["motions"] == 8
     # rapid up 5, plunge 5, line 20, quarter arc r10, line 10, NURBS quarter circle r10, line 20, rapid 5;
     # G64 P0.01 may cut each corner by at most 0.01 mm
     length = 5 + 5 + 20 + 5 * math.pi + 10 + 5 * math.pi + 20 + 5

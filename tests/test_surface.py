@@ -8,12 +8,12 @@ import pytest
 from click.testing import CliRunner
 from geomdl import NURBS
 
-from ipo.iges import read_surfaces
-from ipo.rational_fit import fit_rational
-from ipo.section_fit import fit_sections, fit_shared, section_error
-from ipo.sections import SectionsError, orient_like_first, parse_sections
-from ipo.skinning import deviation_from_points, merge_v, skin, skin_patches
-from ipo.surface import RationalSurface, grid, surface_derivs, surface_points, unit_normals
+from ipo.surface.iges import read_surfaces
+from ipo.fit.rational import fit_rational
+from ipo.surface.section_fit import fit_sections, fit_shared, section_error
+from ipo.surface.sections import SectionsError, orient_like_first, parse_sections
+from ipo.surface.skinning import deviation_from_points, merge_v, skin, skin_patches
+from ipo.surface.evaluation import RationalSurface, grid, surface_derivs, surface_points, unit_normals
 from machine.cli import main
 from surface_cases import bump, csv_text, cylinder, saddle
 
@@ -64,7 +64,7 @@ def test_zig_zag_sections_are_turned_to_run_alike(tmp_path):
 
 # ---------------------------------------------------------------- surface evaluation
 def _random_surface(rng) -> RationalSurface:
-    from ipo.rational_fit import uniform_knots
+    from ipo.fit.rational import uniform_knots
     n_u, n_v = 6, 5
     pts = np.stack(np.meshgrid(np.arange(n_u), np.arange(n_v), indexing="ij"), axis=2) * 10.0
     pts = np.concatenate([pts, rng.normal(0, 3, (n_u, n_v, 1))], axis=2)

@@ -10,12 +10,12 @@ import pytest
 from click.testing import CliRunner
 from scipy.spatial import cKDTree
 
-from ipo.iges import write_iges
-from ipo.nurbs import curve_points
-from ipo.section_fit import fit_shared
-from ipo.skinning import skin
-from ipo.surface import closest_points, grid, surface_points, swap_uv, unit_normals
-from ipo.toolpath import ToolpathSettings, pass_values, plan_passes, program_text
+from ipo.surface.iges import write_iges
+from ipo.nurbs.kernel import curve_points
+from ipo.surface.section_fit import fit_shared
+from ipo.surface.skinning import skin
+from ipo.surface.evaluation import closest_points, grid, surface_points, swap_uv, unit_normals
+from ipo.surface.toolpath import ToolpathSettings, pass_values, plan_passes, program_text
 from ipr import parse_file
 from ipr.entities import Nurbs
 from machine.cli import main

@@ -6,10 +6,10 @@ import pytest
 from click.testing import CliRunner
 from scipy.spatial import cKDTree
 
-from ipo.iges import write_iges
-from ipo.nurbs import curve_points
-from ipo.surface import RationalSurface, c0_knots, grid, split_u, surface_points, swap_uv
-from ipo.toolpath import ToolpathSettings, centres_at, plan_passes, program_text
+from ipo.surface.iges import write_iges
+from ipo.nurbs.kernel import curve_points
+from ipo.surface.evaluation import RationalSurface, c0_knots, grid, split_u, surface_points, swap_uv
+from ipo.surface.toolpath import ToolpathSettings, centres_at, plan_passes, program_text
 from ipr import parse_file
 from ipr.entities import Nurbs
 from machine.cli import main
@@ -199,8 +199,8 @@ def test_three_ridges_of_a_degree_one_prism(tmp_path):
 def test_noisy_patches_merged_c0_plan_along_their_joints():
     """`vcnc surface --patch-sections 5` merges C0: the joints run along passes along u and bend by up to
     1.5 deg, some concave. Each pass is checked against the patches on both sides of the joints."""
-    from ipo.section_fit import fit_sections
-    from ipo.skinning import skin_patches
+    from ipo.surface.section_fit import fit_sections
+    from ipo.surface.skinning import skin_patches
     from surface_cases import bump
 
     surf = skin_patches(fit_sections(bump(0.005).sections, tol_mm=0.02).fits, 5, "C0").surface

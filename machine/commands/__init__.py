@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import click
 
@@ -21,3 +22,31 @@ def load_machine(path: str | None):
         raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
     except OSError as err:
         raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
+
+
+class OutputPath(click.ParamType):
+    """A file the command will write, checked when the command line is read, before any work:
+    a known suffix, not a folder, in a folder that exists and may be written. A bad one is a
+    usage error (exit 2), so a long run is never lost at its end to a typo in a path."""
+
+    name = "path"
+
+    def __init__(self, suffixes: tuple[str, ...] = ()):
+        self.suffixes = suffixes
+
+    def convert(self, value, param, ctx):
+        path = Path(value)
+        if self.suffixes and path.suffix.lower() not in self.suffixes:
+            self.fail(f"{value}: must end in {' or '.join(self.suffixes)}", param, ctx)
+        if path.is_dir():
+            self.fail(f"{value} is a folder", param, ctx)
+        folder = path.parent
+        if not folder.is_dir():
+            self.fail(f"{value}: the folder {folder} does not exist", param, ctx)
+        if not os.access(folder, os.W_OK | os.X_OK) or path.exists() and not os.access(path, os.W_OK):
+            self.fail(f"{value} cannot be written (permission denied)", param, ctx)
+        return str(value)
+
+
+# an input file: exists, is a file, may be read (a missing one is a usage error, exit 2)
+INPUT_FILE = click.Path(exists=True, dir_okay=False, readable=True)

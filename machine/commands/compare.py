@@ -19,6 +19,8 @@ from pathlib import Path
 import click
 import numpy as np
 
+from machine.commands import INPUT_FILE, OutputPath
+
 ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
         ("feed fluctuation (std/mean)", "feed_fluctuation_pct", "{:.2f} %"),
@@ -36,7 +38,7 @@ TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness m
 def _run(path: Path, config):
     from ipr.entities import Arc, Line, Nurbs, Spindle
     from machine.controller import Controller
-    from machine.convert import count_blocks
+    from ipo.fit.convert import count_blocks
     from machine.trace import MemoryTrace
 
     sink = MemoryTrace({})
@@ -45,6 +47,8 @@ def _run(path: Path, config):
     result = ctl.run(program)
     if result.state != "completed":
         raise click.ClickException(f"{path}: the run ended {result.state}: {result.fault or ''}")
+    if result.periods == 0:
+        raise click.ClickException(f"{path}: the program commands no motion; nothing moved, nothing to compare")
     trace = sink.close()
     feed_lines = {e.line: e.feed_mm_s for e in program.entities if isinstance(e, (Line, Arc, Nurbs))}
     rpm = max((e.rpm for e in program.entities if isinstance(e, Spindle) and e.direction), default=0.0)
@@ -84,7 +88,7 @@ def _feed_figures(run: dict) -> dict:
 
 
 def _roughness(run: dict, config) -> dict:
-    from ipo.roughness import inclination_rad, rmax_mm
+    from ipo.feed.roughness import inclination_rad, rmax_mm
 
     fin = config.finishing
     if fin is None:
@@ -202,11 +206,11 @@ def _plot(res: dict, out: str) -> None:
 
 
 @click.command("compare")
-@click.argument("a", type=click.Path(exists=True, dir_okay=False))
-@click.argument("b", type=click.Path(exists=True, dir_okay=False))
-@click.option("--machine", type=click.Path(exists=True, dir_okay=False), default=None,
+@click.argument("a", type=INPUT_FILE)
+@click.argument("b", type=INPUT_FILE)
+@click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML); the built-in default if omitted.")
-@click.option("--plot", "plot_out", type=click.Path(dir_okay=False), default=None,
+@click.option("--plot", "plot_out", type=OutputPath((".png",)), default=None,
               help="Write a PNG: the two paths overlaid and their feed against distance.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
 def command(a: str, b: str, machine: str | None, plot_out: str | None, as_json: bool) -> None:

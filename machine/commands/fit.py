@@ -11,6 +11,8 @@ import sys
 
 import click
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 def format_report(rep, tol_mm: float) -> str:
     ratio_blocks = rep.blocks_before / max(rep.blocks_after, 1)
@@ -35,8 +37,8 @@ def format_report(rep, tol_mm: float) -> str:
 
 
 @click.command("fit")
-@click.argument("src", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False),
+@click.argument("src", type=INPUT_FILE)
+@click.option("-o", "--output", "out", required=True, type=OutputPath(),
               help="Where to write the converted program.")
 @click.option("--tol-mm", "tol_mm", required=True, type=float,
               help="Largest distance allowed between the curve and the G01 path, mm.")
@@ -48,7 +50,7 @@ def format_report(rep, tol_mm: float) -> str:
 def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
-    from machine.convert import convert_text
+    from ipo.fit.convert import convert_text
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")

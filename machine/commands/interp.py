@@ -8,9 +8,11 @@ from pathlib import Path
 import click
 import numpy as np
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 @click.command()
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("file", type=INPUT_FILE)
 @click.option("--step-um", type=float, default=None,
               help="Chord D in micrometres (default: 1 BLU with --pulse, else 100).")
 @click.option("--method", type=click.Choice(["recursive", "taylor1", "taylor2", "constant-du"]),
@@ -26,18 +28,16 @@ import numpy as np
 @click.option("--du", type=float, default=0.02, show_default=True, help="Parameter step of constant-du.")
 @click.option("--pulse", is_flag=True, help="Also drive reference pulses (000 §2.4) and measure them.")
 @click.option("--blu-um", type=float, default=1.0, show_default=True, help="BLU in micrometres for --pulse.")
-@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--out", type=OutputPath((".npz", ".csv")), default=None,
               help="Write the points (pos_mm, N x 3) and parameters (u, N) to .npz or .csv.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
 def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_evals, du, pulse, blu_um, out,
             as_json):
     """Interpolate every motion entity of FILE at a constant chord D (no feed planning)."""
-    from ipo.chord_study import pulse_study, study
+    from ipo.interp.chord_study import pulse_study, study
     from ipr import parse_file
     from ipr.entities import GCodeError
 
-    if out is not None and out.suffix not in (".npz", ".csv"):
-        raise click.BadParameter("must end in .npz or .csv", param_hint="--out")
     if step_um is None:
         step_um = blu_um if pulse else 100.0
     try:
@@ -55,7 +55,7 @@ def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_eva
     if pulse_dev is not None:
         summary["pulse_dev_blu"] = pulse_dev
     if out is not None:
-        if out.suffix == ".npz":
+        if Path(out).suffix.lower() == ".npz":
             np.savez(out, pos_mm=result.pos_mm, u=result.u)
         else:
             np.savetxt(out, np.column_stack([result.pos_mm, result.u]), delimiter=",",

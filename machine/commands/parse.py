@@ -12,6 +12,8 @@ import sys
 
 import click
 
+from machine.commands import INPUT_FILE
+
 _KINDS = {"Rapid": "rapid", "Line": "line", "Arc": "arc", "Nurbs": "nurbs", "Dwell": "dwell"}
 
 
@@ -23,7 +25,7 @@ def _arc_length_mm(arc) -> float:
 
 
 def _nurbs_length_mm(nurbs) -> float:
-    from ipo.nurbs import arc_length
+    from ipo.nurbs.kernel import arc_length
 
     return arc_length(nurbs.degree, nurbs.knots, nurbs.weights, nurbs.points, rel_tol=1e-6)
 
@@ -114,10 +116,10 @@ def _setup(machine_file: str | None):
 
 
 @click.command("parse")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.argument("file", type=INPUT_FILE)
 @click.option("--json", "as_json", is_flag=True, help="print the entities as a JSON array")
 @click.option("--all-errors", is_flag=True, help="report every error, not just the first")
-@click.option("--machine", "machine_file", type=click.Path(dir_okay=False),
+@click.option("--machine", "machine_file", type=INPUT_FILE,
               help="machine TOML for work offsets and tool lengths (default: built in)")
 def command(file: str, as_json: bool, all_errors: bool, machine_file: str | None) -> None:
     """Check FILE and print its motion entities (or a summary)."""

@@ -1,14 +1,14 @@
 """`vcnc run FILE`: check a program, run it in the virtual controller, print the summary."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import sys
+import time
 
 import click
 
 from ipo.config import METHODS
-from machine.commands import load_machine
+from machine.commands import INPUT_FILE, OutputPath, load_machine
 
 
 
@@ -74,28 +74,68 @@ def _run_realtime(controller, program):
         return controller.run(program, player=player)
 
 
-def _run_fast(controller, program, show_progress: bool):
+class _Compiling:
+    """Watches numba compile its kernels (a cache miss: the first run after an install or a
+    change of a kernel), so the progress display can say why nothing moves yet and the summary
+    can say how much of the wall time it took."""
+
+    RUNNING = "running"
+    COMPILING = "compiling numba kernels (first run only, cached afterwards)"
+
+    def __init__(self):
+        from numba.core import event
+
+        self._event = event
+        self.depth, self.t0, self.total_s = 0, 0.0, 0.0
+        self.on_change = lambda compiling: None
+        self.listener = type("L", (event.Listener,), {"on_start": lambda _, ev: self._start(),
+                                                       "on_end": lambda _, ev: self._end()})()
+
+    def _start(self):
+        self.depth += 1
+        if self.depth == 1:  # a kernel that calls others compiles them inside its own compile
+            self.t0 = time.perf_counter()
+            self.on_change(True)
+
+    def _end(self):
+        self.depth -= 1
+        if self.depth == 0:
+            self.total_s += time.perf_counter() - self.t0
+            self.on_change(False)
+
+    def __enter__(self):
+        self._event.register("numba:compile", self.listener)
+        return self
+
+    def __exit__(self, *exc):
+        self._event.unregister("numba:compile", self.listener)
+
+
+def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
     if not show_progress:
         return controller.run(program)
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     last_line = max((getattr(e, "line", 0) for e in program.entities), default=1) or 1
-    with Progress(TextColumn("running"), BarColumn(), TextColumn("line {task.completed:.0f}/{task.total:.0f}"),
+    with Progress(TextColumn("{task.description}"), BarColumn(),
+                  TextColumn("line {task.completed:.0f}/{task.total:.0f}"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("run", total=last_line)
+        task = bar.add_task(_Compiling.RUNNING, total=last_line)
+        compiling.on_change = lambda on: bar.update(
+            task, description=_Compiling.COMPILING if on else _Compiling.RUNNING)
         return controller.run(program, progress=lambda line: bar.update(task, completed=line))
 
 
 @click.command("run")
-@click.argument("file", type=click.Path(dir_okay=False))
-@click.option("--machine", "machine_file", type=click.Path(dir_okay=False), help="Machine TOML (default: built in).")
+@click.argument("file", type=INPUT_FILE)
+@click.option("--machine", "machine_file", type=INPUT_FILE, help="Machine TOML (default: built in).")
 @click.option("--period-ms", type=float, help="Interpolation period in ms (overrides the machine file).")
 @click.option("--method", type=click.Choice(list(METHODS)),
               help="NURBS interpolator (default: the machine file's).")
 @click.option("--feed-override", type=float, default=100.0, show_default=True, help="Feed override in percent.")
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False), help="Write the trace (.npz or .csv).")
-@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), help="Plot the run into a PNG.")
+@click.option("--trace", "trace_file", type=OutputPath((".npz", ".csv")), help="Write the trace (.npz or .csv).")
+@click.option("--plot", "plot_file", type=OutputPath((".png",)), help="Plot the run into a PNG.")
 @click.option("--realtime", is_flag=True, help="Pace at the period; keys: space hold/resume, +/- override, s stop.")
 @click.option("--optional-stop", is_flag=True, help="Honour M1 optional stops.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
@@ -111,15 +151,17 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.trace import MemoryTrace, load_trace, open_writer
+    from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
 
     config = load_machine(machine_file)
-    from machine.workpiece.cli_run import check_surface_outputs, start_workpiece, finish_workpiece
-
     cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config)
     if period_ms is not None:
-        if not period_ms > 0:
-            raise click.BadParameter("must be > 0", param_hint="--period-ms")
-        config = dataclasses.replace(config, period_s=period_ms / 1000.0)
+        from ipo.config import ConfigError, with_period
+
+        try:
+            config = with_period(config, period_ms / 1000.0)
+        except ConfigError as err:
+            raise click.BadParameter(str(err), param_hint="--period-ms") from None
     if not feed_override > 0:
         raise click.BadParameter("must be > 0", param_hint="--feed-override")
     controller = Controller(config, method=method, feed_override=feed_override / 100.0,
@@ -149,14 +191,20 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     memory = MemoryTrace(meta) if plot_file and not trace_file else None
     controller.sinks = [s for s in (writer, memory, workpiece) if s is not None]
     try:
-        if realtime:
-            result = _run_realtime(controller, program)
-        else:
-            result = _run_fast(controller, program, show_progress=not as_json and sys.stderr.isatty())
+        with _Compiling() as compiling:
+            if realtime:
+                result = _run_realtime(controller, program)
+            else:
+                result = _run_fast(controller, program, not as_json and sys.stderr.isatty(), compiling)
     finally:
         if writer is not None:
             writer.close()
     _print_summary(result, as_json)
+    if compiling.total_s > 0:
+        click.echo(f"numba compiled its kernels for {compiling.total_s:.1f} s of this run's wall time "
+                   f"(first run after an install or a change; cached for the next runs)", err=True)
+    if result.state == "completed" and result.periods == 0:
+        click.echo(f"{file}: the program commands no motion; nothing moved", err=True)
     if workpiece is not None:
         finish_workpiece(workpiece, result, surface_files)
     if result.state != "completed":

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from machine.commands import load_machine
+from machine.commands import INPUT_FILE, load_machine
 
 KEYS_HELP = "space hold/resume, + / - feed override 10 %, 0 override 100 %, x reset"
 
@@ -43,7 +43,7 @@ def _dry_run(protocol, program, config, resume_from) -> None:
     if protocol == "increments":
         import numpy as np
 
-        from ipo.feed import plan_periods
+        from ipo.feed.planner import plan_periods
         from machine.increments import frames as F
         from machine.increments.link import frame_chunks
 
@@ -143,7 +143,7 @@ def _stream_grbl(port, baud, program, config, resume_from, unlock, poll_hz) -> N
 def _stream_increments(port, baud, program, config) -> None:
     from rich.console import Console
 
-    from ipo.feed import plan_periods
+    from ipo.feed.planner import plan_periods
     from machine.increments.link import IncrementLink, IncrementLinkError
 
     console = Console(stderr=True)
@@ -162,11 +162,11 @@ def _stream_increments(port, baud, program, config) -> None:
 
 
 @click.command()
-@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.argument("file", type=INPUT_FILE)
 @click.option("--port", help="device path, socket://host:port, rfc2217://host:port or loop://")
 @click.option("--protocol", type=click.Choice(["grbl", "increments"]), default="grbl", show_default=True)
 @click.option("--baud", type=int, default=115200, show_default=True)
-@click.option("--machine", "machine_file", type=click.Path(exists=True, dir_okay=False),
+@click.option("--machine", "machine_file", type=INPUT_FILE,
               help="machine TOML the IPO plans with (default: the built-in machine)")
 @click.option("--resume-from", type=click.IntRange(min=1), default=None,
               help="stream line to continue from (a stopped stream prints it); vcnc checks the machine "
@@ -177,6 +177,9 @@ def _stream_increments(port, baud, program, config) -> None:
               help="grbl status polls per second")
 def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlock, poll_hz):
     """Stream FILE to a grbl 1.1 board or an increment-protocol drive."""
+    if dry_run and protocol == "increments" and sys.stdout.isatty():
+        raise click.UsageError("--dry-run with --protocol increments writes binary frames: "
+                               "redirect stdout to a file or a pipe")
     config = load_machine(machine_file)
     program = _load_program(file)
     if resume_from is not None and protocol == "increments":

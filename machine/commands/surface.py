@@ -12,10 +12,12 @@ import time
 
 import click
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 @click.command("surface")
-@click.argument("points", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False), help="IGES file to write.")
+@click.argument("points", type=INPUT_FILE)
+@click.option("-o", "--output", "out", required=True, type=OutputPath((".igs", ".iges")), help="IGES file to write.")
 @click.option("--tol-mm", "tol_mm", default=0.05, show_default=True, type=float,
               help="Largest point error allowed per section; sets the control-point count.")
 @click.option("--order", default=4, show_default=True, type=int, help="B-spline order k (degree k - 1).")
@@ -28,10 +30,10 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
     """Fit digitised cross-sections, skin them into a rational surface and write IGES."""
     import numpy as np
 
-    from ipo.iges import RationalCurve, write_iges
-    from ipo.section_fit import fit_sections
-    from ipo.sections import SectionsError, orient_like_first, read_sections
-    from ipo.skinning import deviation_from_points, skin_patches
+    from ipo.surface.iges import RationalCurve, write_iges
+    from ipo.surface.section_fit import fit_sections
+    from ipo.surface.sections import SectionsError, orient_like_first, read_sections
+    from ipo.surface.skinning import deviation_from_points, skin_patches
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")

@@ -13,10 +13,12 @@ import time
 
 import click
 
+from machine.commands import INPUT_FILE, OutputPath
+
 
 @click.command("toolpath")
-@click.argument("surface", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", "out", required=True, type=click.Path(dir_okay=False), help="Program to write.")
+@click.argument("surface", type=INPUT_FILE)
+@click.option("-o", "--output", "out", required=True, type=OutputPath(), help="Program to write.")
 @click.option("--ball-mm", required=True, type=float, help="Ball-end tool radius, mm.")
 @click.option("--pick-mm", required=True, type=float, help="Pick feed (distance between passes on the surface), mm.")
 @click.option("--feed-mm-min", default=1000.0, show_default=True, type=float, help="Cutting feed, mm/min.")
@@ -27,8 +29,8 @@ import click
               help="Parameter direction of the passes (u: along the sections).")
 def command(surface, out, ball_mm, pick_mm, feed_mm_min, spindle_rpm, tol_mm, along) -> None:
     """Write ball-end finishing passes over an IGES surface as G06.2 groups."""
-    from ipo.iges import IgesError, read_surfaces
-    from ipo.toolpath import ToolpathSettings, plan_passes, program_text
+    from ipo.surface.iges import IgesError, read_surfaces
+    from ipo.surface.toolpath import ToolpathSettings, plan_passes, program_text
 
     settings = ToolpathSettings(ball_mm, pick_mm, tol_mm, feed_mm_min, spindle_rpm, along)
     try:

@@ -3,7 +3,7 @@
 G0/G1 pass through in absolute coordinates with the motion code, every axis and F
 written out on every line; G2/G3 pass through as arcs (incremental IJK from the
 line's start, the plane code on the line; extra full turns become separate arcs).
-NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.plan_periods`): the
+NURBS, which grbl cannot run, go through vcnc's IPO (`ipo.feed.planner.plan_periods`): the
 per-period path is merged into G1 segments within `merge_tol_mm` of the period
 points, and each segment carries the IPO's planned feed (the mean of the planned path
 speed over its periods), so grbl runs the curve at the speed vcnc planned.
@@ -148,7 +148,7 @@ class _PeriodCursor:
 
 
 def _plan_with_ipo(config) -> Callable[[Iterable, tuple], Iterator]:
-    from ipo.feed import plan_periods  # the feed stage; imported only when a program has a NURBS
+    from ipo.feed.planner import plan_periods  # the feed stage; imported only when a program has a NURBS
 
     # grbl rounds to its own steps: the vertices sent are the IPO's period points on the curve,
     # not rounded to the drive's BLU first (that added up to half a BLU per axis to the deviation)

@@ -110,7 +110,7 @@ class IncrementReceiver:
         self.buffered -= len(inc)
         self.executed_periods += len(inc)
         if self.drive is not None:
-            from ipo.period import PeriodBatch
+            from ipo.contracts import PeriodBatch
 
             n = len(inc)
             pos = (self.position_blu + np.cumsum(inc, axis=0)) * self.drive.limits.blu_mm

@@ -1,0 +1,105 @@
+"""Acceptance over LinuxCNC's own programs: of those `rs274 -g` accepts, the share vcnc accepts
+with the same end points.
+
+    python bench/linuxcnc_programs.py [--list] [DIR ...]
+
+Default directories: /usr/share/linuxcnc/ncfiles, /usr/share/doc/linuxcnc/examples (Debian's
+linuxcnc-uspace) and ../shared/corpus/linuxcnc. Every *.ngc / *.nc file below them is run through
+`rs274 -g -b` (in the program's folder, where it finds subroutine files) and through
+`ipr.parse_file`. A program counts as agreeing when vcnc accepts it and its Rapid/Line/Arc
+entities have the same count and end points as rs274's moves (tests/rs274.py reads rs274's
+output; tolerance: rs274's printed precision). The files are read where they are installed,
+never copied. It prints the figure and, for each program vcnc refuses, the error code, so the
+constructs still missing can be counted.
+"""
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from rs274 import RS274, canon_moves  # noqa: E402
+
+import ipr  # noqa: E402
+from ipr.entities import Arc, GCodeError, Line, Rapid  # noqa: E402
+
+DIRS = (Path("/usr/share/linuxcnc/ncfiles"), Path("/usr/share/doc/linuxcnc/examples"),
+        Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc")
+RS274_TIMEOUT_S = 60
+_FLOAT_SLACK = 1e-9
+
+
+def programs(dirs) -> list[Path]:
+    files = set()
+    for d in dirs:
+        if d.is_dir():
+            files.update(p for p in d.rglob("*") if p.suffix.lower() in (".ngc", ".nc") and p.is_file())
+    return sorted(files)
+
+
+def rs274_moves(path: Path):
+    """rs274's moves, or None when it rejects the program (or does not finish)."""
+    try:
+        done = subprocess.run([RS274, "-g", "-b", path.name], cwd=path.parent, capture_output=True, text=True,
+                              stdin=subprocess.DEVNULL, timeout=RS274_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return None
+    # rs274 -g prints an error and still exits 0 on some failures: its message on stderr says so
+    if done.returncode != 0 or "error" in done.stderr.lower():
+        return None
+    return canon_moves(done.stdout)
+
+
+def compare(path: Path, moves) -> str:
+    """'agree', 'differ: ...' or the first error code vcnc reports."""
+    try:
+        entities = ipr.parse_file(path).entities
+    except GCodeError as err:
+        d = err.diagnostics[0]
+        return f"{d.code}: {d.message[:70]}"
+    except Exception as err:  # a traceback is the worst outcome: count it, name it
+        return f"TRACEBACK {type(err).__name__}: {str(err)[:60]}"
+    motions = [e for e in entities if type(e) in (Rapid, Line, Arc)]
+    if len(motions) != len(moves):
+        return f"differ: {len(motions)} moves, rs274 {len(moves)}"
+    for i, (m, e) in enumerate(zip(moves, motions)):
+        if any(abs(e.end[k] - m.end_mm[k]) > m.tol_mm + _FLOAT_SLACK for k in range(3)):
+            return f"differ: move {i} (line {e.line}) ends at {e.end}, rs274 {m.end_mm}"
+    return "agree"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("dirs", nargs="*", type=Path, default=list(DIRS))
+    parser.add_argument("--list", action="store_true", help="print every program's outcome")
+    args = parser.parse_args()
+    if RS274 is None:
+        sys.exit("rs274 is not installed (Debian package linuxcnc-uspace)")
+    t0 = time.perf_counter()
+    files = programs(args.dirs)
+    outcomes: dict[Path, str] = {}
+    rejected_by_rs274 = 0
+    for path in files:
+        moves = rs274_moves(path)
+        if moves is None:
+            rejected_by_rs274 += 1
+            continue
+        outcomes[path] = compare(path, moves)
+    agree = sum(1 for o in outcomes.values() if o == "agree")
+    refused = Counter(o.split(":")[0] for o in outcomes.values() if o != "agree")
+    if args.list:
+        for path, outcome in outcomes.items():
+            print(f"{outcome[:110]:<110} {path}")
+    print(f"\n{len(files)} programs found, rs274 accepts {len(outcomes)} (rejects {rejected_by_rs274})")
+    print(f"vcnc accepts with the same end points: {agree} / {len(outcomes)} = "
+          f"{100.0 * agree / max(len(outcomes), 1):.1f} %")
+    print("not agreeing, by first error code: " + ", ".join(f"{k} {n}" for k, n in refused.most_common()))
+    print(f"({time.perf_counter() - t0:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,19 @@
+"""The feed stage: motion entities -> one arc-length path -> planned feed -> period batches.
+
+Pipeline (`planner.FeedPlanner`, per look-ahead window):
+- `split`: a NURBS with C0 corners inside it, as its parts (and the check that refuses a
+  curve the planner cannot follow).
+- `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
+  the NURBS corners (`nurbs_corner`), the curvature-continuous corners of S-curve mode
+  (`curvature_continuous`) and their compiled kernels (`compiled`).
+- `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
+- `sampling`: where along the path the limits are evaluated.
+- `limits`: caps on v^2 at the samples, each with its reason; `roughness`: 002's
+  surface-roughness model and limiter (eq. 1–6).
+- `lookahead`: the phase-plane profile and its time parameterisation.
+- `scurve`: the jerk-limiting moving average of S-curve mode.
+- `emission`: planned arc lengths -> quantised positions -> `PeriodBatch`.
+- `planner`: `plan_periods`, the stage's entry point.
+
+May import: ipo.config, ipo.contracts, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+"""

@@ -1,0 +1,177 @@
+"""Compiled kernels for the cubic (and quintic G2) Bezier corner blends (ipo.feed.pieces), which a raster program
+has by the ten thousand: the arc-length table and the points at given arc lengths, the
+same arithmetic as ipo.feed.sampling's generic numpy path (nurbs_table, NurbsTable.points_at)
+without its per-call overhead.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def _derivs(p, u, out_c, out_d1, out_d2):
+    """C(u), C'(u), C''(u) of the cubic Bezier with control points p (4, 3), or of the
+    Bezier of any other degree (the quintic G2 blends, ipo.feed.blends.curvature_continuous)."""
+    if p.shape[0] != 4:
+        _derivs_any(p, u, out_c, out_d1, out_d2)
+        return
+    for a in range(3):
+        p0, p1, p2, p3 = p[0, a], p[1, a], p[2, a], p[3, a]
+        a1 = 3 * (p1 - p0)
+        a2 = 3 * (p2 - 2 * p1 + p0)
+        a3 = p3 - 3 * p2 + 3 * p1 - p0
+        for i in range(u.shape[0]):
+            uu = u[i]
+            out_c[i, a] = p0 + uu * (a1 + uu * (a2 + uu * a3))
+            out_d1[i, a] = a1 + uu * (2 * a2 + 3 * uu * a3)
+            out_d2[i, a] = 2 * a2 + 6 * uu * a3
+
+
+@njit(cache=True)
+def _derivs_any(p, u, out_c, out_d1, out_d2):
+    """_derivs for a Bezier of degree n = len(p) - 1 from its power-basis coefficients,
+    a_k = C(n, k) sum_i (-1)^(k - i) C(k, i) P_i, by Horner's rule."""
+    n = p.shape[0] - 1
+    coef = np.zeros((n + 1, 3))
+    binom_n = 1.0
+    for k in range(n + 1):
+        binom_k = 1.0
+        for i in range(k + 1):
+            sign = 1.0 if (k - i) % 2 == 0 else -1.0
+            for a in range(3):
+                coef[k, a] += sign * binom_k * p[i, a]
+            binom_k = binom_k * (k - i) / (i + 1)
+        for a in range(3):
+            coef[k, a] *= binom_n
+        binom_n = binom_n * (n - k) / (k + 1)
+    for i in range(u.shape[0]):
+        uu = u[i]
+        for a in range(3):
+            c, d1, d2 = coef[n, a], n * coef[n, a], n * (n - 1) * coef[n, a]
+            for k in range(n - 1, -1, -1):
+                c = c * uu + coef[k, a]
+                if k >= 1:
+                    d1 = d1 * uu + k * coef[k, a]
+                if k >= 2:
+                    d2 = d2 * uu + k * (k - 1) * coef[k, a]
+            out_c[i, a], out_d1[i, a], out_d2[i, a] = c, d1, d2
+
+
+@njit(cache=True)
+def _frame(p, u):
+    """Speed |C'|, unit tangent and curvature vector at u."""
+    n = u.shape[0]
+    c, d1, d2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    _derivs(p, u, c, d1, d2)
+    speed = np.empty(n)
+    t, kv = np.empty((n, 3)), np.empty((n, 3))
+    for i in range(n):
+        sp = np.sqrt(d1[i, 0] * d1[i, 0] + d1[i, 1] * d1[i, 1] + d1[i, 2] * d1[i, 2])
+        speed[i] = sp
+        if sp <= 0:
+            return speed, t, kv, False
+        for a in range(3):
+            t[i, a] = d1[i, a] / sp
+        dot = d2[i, 0] * t[i, 0] + d2[i, 1] * t[i, 1] + d2[i, 2] * t[i, 2]
+        for a in range(3):
+            kv[i, a] = (d2[i, a] - dot * t[i, a]) / (sp * sp)
+    return speed, t, kv, True
+
+
+@njit(cache=True)
+def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
+    """(s, u, speed, t, kv, ok) as ipo.feed.sampling.nurbs_table builds them; ok is False where
+    the derivative vanishes."""
+    u = np.empty(start_per_span + 1)
+    step = 1.0 / start_per_span
+    for i in range(start_per_span + 1):
+        u[i] = i * step
+    u[start_per_span] = 1.0
+    for _ in range(rounds):
+        speed, t, kv, ok = _frame(p, u)
+        if not ok:
+            return u, u, speed, t, kv, False
+        m = u.shape[0] - 1
+        split = np.empty(m, np.int64)
+        total = 0
+        for i in range(m):
+            ds = 0.5 * (speed[i] + speed[i + 1]) * (u[i + 1] - u[i])
+            k0 = np.sqrt(kv[i, 0] ** 2 + kv[i, 1] ** 2 + kv[i, 2] ** 2)
+            k1 = np.sqrt(kv[i + 1, 0] ** 2 + kv[i + 1, 1] ** 2 + kv[i + 1, 2] ** 2)
+            cos_t = t[i, 0] * t[i + 1, 0] + t[i, 1] * t[i + 1, 1] + t[i, 2] * t[i + 1, 2]
+            turn = max(max(k0, k1) * ds, np.arccos(min(max(cos_t, -1.0), 1.0)))
+            split[i] = int(max(np.ceil(turn / max_turn_rad), np.ceil(ds / max_spacing_mm)))
+            total += min(split[i], 64) if split[i] > 1 else 1
+        if total == m:
+            break
+        out = np.empty(total + 1)
+        j = 0
+        for i in range(m):
+            out[j] = u[i]
+            j += 1
+            if split[i] > 1:
+                sp = min(split[i], 64)
+                h = (u[i + 1] - u[i]) / sp
+                for r in range(1, sp):
+                    out[j] = r * h + u[i]
+                    j += 1
+        out[j] = u[m]
+        u = np.unique(out)
+    speed, t, kv, ok = _frame(p, u)
+    if not ok:
+        return u, u, speed, t, kv, False
+    mid = 0.5 * (u[:-1] + u[1:])
+    mid_speed, _, _, ok = _frame(p, mid)
+    if not ok:
+        return u, u, speed, t, kv, False
+    s = np.empty(u.shape[0])
+    s[0] = 0.0
+    acc = 0.0
+    for i in range(u.shape[0] - 1):
+        acc += (speed[i] + 4 * mid_speed[i] + speed[i + 1]) / 6 * (u[i + 1] - u[i])
+        s[i + 1] = acc
+    return s, u, speed, t, kv, True
+
+
+@njit(cache=True)
+def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
+    """Points at arc lengths s: u from the table, then three Newton steps on the arc length
+    (Gauss-Legendre nodes xg, weights wg from the table sample below)."""
+    n = s.shape[0]
+    length = s_tab[-1]
+    last = s_tab.shape[0] - 2
+    u = np.empty(n)
+    uk = np.empty(n)
+    uk1 = np.empty(n)
+    sk = np.empty(n)
+    target = np.empty(n)
+    for i in range(n):
+        si = min(max(s[i], 0.0), length)
+        target[i] = si
+        k = min(max(np.searchsorted(s_tab, si, side="right") - 1, 0), last)
+        h = s_tab[k + 1] - s_tab[k]
+        q = (si - s_tab[k]) / h if h > 0 else 0.0
+        uk[i], uk1[i], sk[i] = u_tab[k], u_tab[k + 1], s_tab[k]
+        u[i] = u_tab[k] + q * (u_tab[k + 1] - u_tab[k])
+    g = xg.shape[0]
+    uu = np.empty(n * g)
+    c, d1, d2 = np.empty((n * g, 3)), np.empty((n * g, 3)), np.empty((n * g, 3))
+    c1, e1, e2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    for _ in range(3):
+        for i in range(n):
+            du = u[i] - uk[i]
+            for j in range(g):
+                uu[i * g + j] = uk[i] + 0.5 * du * (xg[j] + 1)
+        _derivs(p, uu, c, d1, d2)
+        _derivs(p, u, c1, e1, e2)
+        for i in range(n):
+            quad = 0.0
+            for j in range(g):
+                r = i * g + j
+                quad += np.sqrt(d1[r, 0] ** 2 + d1[r, 1] ** 2 + d1[r, 2] ** 2) * wg[j]
+            s_u = sk[i] + 0.5 * (u[i] - uk[i]) * quad
+            speed = np.sqrt(e1[i, 0] ** 2 + e1[i, 1] ** 2 + e1[i, 2] ** 2)
+            u[i] = min(max(u[i] - (s_u - target[i]) / speed, uk[i]), uk1[i])
+    _derivs(p, u, c1, e1, e2)
+    return c1

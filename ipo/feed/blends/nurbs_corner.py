@@ -1,0 +1,84 @@
+"""G64 corner blends where a NURBS meets a line, an arc or another NURBS non-tangentially.
+
+The blend is sized by the rule of the line and arc corners (ipo.feed.pieces): a circular arc of
+radius R tangent to both tangents at the corner, R (sec(theta/2) - 1) <= P, whose tangent
+points lie d = R tan(theta/2) from the corner, within what either move may give up. The
+moves are trimmed back by d along their arc length, and a cubic joins the trimmed ends,
+tangent to both, with the handles of the circular arc through them. Because a NURBS may
+bend within d, the cubic is then checked against the programmed corner (its largest
+distance from the two moves, its distance from the corner point) and shrunk until both
+are within P.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+_CHECK_BLEND = 33  # points checked along the cubic (its midpoint among them)
+_CHECK_SIDE = 65  # points of each move's trimmed stretch (a polyline far finer than P)
+_TRIES = 12
+_SLACK = 1e-9  # relative: a deviation of P to float rounding passes
+
+
+class Side(NamedTuple):
+    """One move next to the corner, by the distance x (mm of arc length) from the corner:
+    at(x) -> (point, unit tangent in the direction of travel) and polyline(x, n) -> (n, 3)
+    points of the move from the corner to x (only dense, not evenly spaced)."""
+
+    at: Callable[[float], tuple[np.ndarray, np.ndarray]]
+    polyline: Callable[[float, int], np.ndarray]
+
+
+def arc_cubic(a: np.ndarray, ta: np.ndarray, b: np.ndarray, tb: np.ndarray) -> np.ndarray:
+    """Control points (4, 3) of the cubic from a to b tangent to ta and tb, with the handles
+    h = 4/3 tan(phi/4) R of the circular arc of turn phi through a and b, which with the chord
+    |b - a| = 2 R sin(phi/2) is h = |b - a| / (3 cos^2(phi/4))."""
+    phi = np.arccos(np.clip(np.dot(ta, tb), -1.0, 1.0))
+    h = np.linalg.norm(b - a) / (3.0 * np.cos(0.25 * phi) ** 2)
+    return np.array([a, a + h * ta, b - h * tb, b])
+
+
+def _bezier(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
+    v = 1.0 - u[:, None]
+    uu = u[:, None]
+    return v**3 * ctrl[0] + 3 * v * v * uu * ctrl[1] + 3 * v * uu * uu * ctrl[2] + uu**3 * ctrl[3]
+
+
+def _polyline_distance(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of each point q (M, 3) from the polyline through poly (N, 3)."""
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    ab2 = np.einsum("ij,ij->i", ab, ab)
+    aq = q[:, None, :] - a[None, :, :]
+    f = np.clip(np.divide(np.einsum("mij,ij->mi", aq, ab), ab2, out=np.zeros((len(q), len(a))), where=ab2 > 0),
+                0.0, 1.0)
+    return np.linalg.norm(aq - f[..., None] * ab[None], axis=2).min(axis=1)
+
+
+def deviation(ctrl: np.ndarray, before: Side, after: Side, d: float, corner: np.ndarray) -> float:
+    """The larger of the cubic's largest distance from the two moves' last and first d and
+    its distance from the corner point."""
+    q = _bezier(ctrl, np.linspace(0.0, 1.0, _CHECK_BLEND))
+    from_path = np.minimum(_polyline_distance(q, before.polyline(d, _CHECK_SIDE)),
+                           _polyline_distance(q, after.polyline(d, _CHECK_SIDE)))
+    return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
+
+
+def corner_blend(before: Side, after: Side, corner: np.ndarray, theta: float, tol_mm: float, d_max: float
+                 ) -> tuple[float, np.ndarray] | None:
+    """(d, cubic control points) for the corner point `corner` of turn theta between `before`
+    and `after`, or None where no blend within tol_mm was found (the planner then crosses
+    the corner at its cap)."""
+    half = 0.5 * theta
+    radius = tol_mm / (1.0 / np.cos(half) - 1.0)  # R (sec(theta/2) - 1) <= P, as in ipo.feed.pieces
+    d = min(radius * np.tan(half), d_max)
+    for _ in range(_TRIES):
+        if not d > 0:
+            return None
+        ctrl = arc_cubic(*before.at(d), *after.at(d))
+        worst = deviation(ctrl, before, after, d, corner) / tol_mm
+        if worst <= 1.0 + _SLACK:
+            return d, ctrl
+        d *= min(0.99, 0.995 / worst)  # the deviation grows about linearly with d
+    return None

@@ -1,0 +1,155 @@
+"""The feed stage's output side: planned arc lengths of consecutive periods -> PeriodBatch.
+
+The look-ahead planner (ipo.feed.planner) decides where along the path each period ends; this
+module turns those arc lengths into machine positions (lines, arcs and blends evaluated
+exactly by arc length, a NURBS walked by its stepper), quantises them to BLU increments
+(ipo.interp.reference_word.quantise), passes them through the S-curve filter in that mode
+(ipo.feed.scurve) and cuts the batches where events sit.
+
+It owns the state that belongs to the machine rather than to the plan: where the machine
+stands (in mm and in BLU) and the S-curve filter with the arc length it has put out. The
+planner's window (pieces, where they start, their NURBS drivers, pending events) is passed
+in on each call, because the planner keeps trimming and extending it between calls.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from ipo.config import MachineConfig
+from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
+from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
+from ipo.interp.reference_word import quantise
+from ipo.feed.scurve import MovingAverage
+
+
+def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.ndarray,
+                   centripetal: np.ndarray, curvature_code: int) -> np.ndarray:
+    """Limit reason of each refined interval (xs = v^2 at the refined points, src = the
+    sample each refined point lies after).
+
+    A period is limited by a cap where both ends of its interval run at their caps, or one
+    does and the speed stays level; else it is accelerating or braking (away from a
+    corner's cap, into a stop), unless `centripetal` (one flag per sample interval,
+    centripetal_binds) says an axis at its limit there owes most of it to the curvature:
+    below a curvature peak's cap, where one path acceleration cannot meet the axis limits
+    at both ends of an interval at the cap, that is `curvature_code`."""
+    k0, k1 = src[:-1], src[:-1] + 1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
+        r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
+    level = np.abs(xs[1:] - xs[:-1]) <= 0.01 * np.maximum(xs[:-1], xs[1:])
+    moving = np.where(centripetal[np.minimum(k0, len(centripetal) - 1)], curvature_code, LIMIT_ACCEL)
+    return np.where(r0 & (r1 | level), reason[k0],
+                    np.where(r1 & level, reason[k1], moving)).astype(np.int8)
+
+
+def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarray, a_max: np.ndarray,
+                      ascale: np.ndarray) -> np.ndarray:
+    """Per sample interval: at one of its ends some axis runs within 1 % of its limit with
+    the constant s'' of the interval, and the centripetal share kv_i x is most of it."""
+    ds = np.diff(s)
+    sdd = np.divide(np.diff(x), 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
+    out = np.zeros(len(ds), bool)
+    for end, xe in ((slice(None, -1), x[:-1]), (slice(1, None), x[1:])):
+        cen = kv[end] * xe[:, None]
+        acc = t[end] * sdd[:, None] + cen
+        at_limit = np.abs(acc) >= 0.99 * ascale[:, None] * a_max[None, :]
+        out |= np.any(at_limit & (np.abs(cen) >= 0.5 * np.abs(acc)), axis=1)
+    return out & (ds > 0)
+
+
+class PeriodOutput:
+    """Machine position and S-curve filter state; see the module docstring."""
+
+    def __init__(self, config: MachineConfig, fir: MovingAverage | None, *, start_mm, batch_periods: int):
+        self.T = config.period_s
+        self.blu_mm = config.blu_mm
+        self.batch_periods = batch_periods
+        self.fir = fir
+        self.pos = np.array(start_mm, dtype=float)
+        self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
+        self.s_out = 0.0  # arc length of the last period sent (S-curve filter output)
+
+    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, pieces: Pieces, pstart: np.ndarray,
+                nurbs: dict[int, NurbsDriver], events: list, *, flush: bool) -> Iterator:
+        """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
+        filter in that mode; `flush` runs the filter out at a stop. Events due by the end
+        are popped from `events` (the planner's own list) and yielded in place."""
+        if self.fir is None:
+            yield from self._batch(sv, s_prev, limit, pieces, pstart, nurbs, events)
+            return
+        smooth = self.fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
+        if flush:
+            limit = np.concatenate([limit, np.full(self.fir.m - 1, LIMIT_ACCEL, np.int8)])
+        s_f = self.s_out + np.cumsum(smooth)
+        if flush:
+            s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
+        prev = self.s_out
+        self.s_out = float(s_f[-1])
+        yield from self._batch(s_f, prev, limit, pieces, pstart, nurbs, events)
+
+    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, pieces: Pieces, pstart: np.ndarray,
+               nurbs: dict[int, NurbsDriver], events: list) -> Iterator:
+        """Points at arc lengths sv, quantised; split where events sit."""
+        loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
+        # a period ending exactly on a piece boundary belongs to the piece it completes
+        on_edge = (loc > 0) & (sv <= pstart[loc] + 1e-12)
+        loc = loc - on_edge
+        sigma = np.clip(sv - pstart[loc], 0.0, pieces.length[loc])
+        pos = evaluate(pieces, loc, sigma)
+        mask = pieces.kind[loc] == KIND_NURBS
+        if mask.any():
+            _nurbs_points(pos, loc, sv, s_prev, mask, pieces, pstart, nurbs)
+        blend = np.nonzero(pieces.kind[loc] == KIND_BLEND)[0]
+        for p in np.unique(loc[blend]):
+            at = blend[loc[blend] == p]
+            drv = nurbs[int(pieces.nurbs[p])]
+            pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
+        feed = np.diff(sv, prepend=s_prev) / self.T
+        line = pieces.line[loc]
+        inc, end = quantise(pos, self.blu_mm, self.blu)
+        qpos = (self.blu + np.cumsum(inc, axis=0)) * self.blu_mm
+        self.blu = end
+        self.pos = pos[-1].copy()
+        cut = 0
+        while events and events[0][0] <= sv[-1] + 1e-9:
+            s_ev, ev = events.pop(0)
+            j = max(int(np.searchsorted(sv, s_ev + 1e-9, side="right")), cut)
+            if j > cut:
+                yield PeriodBatch(qpos[cut:j], inc[cut:j], feed[cut:j], limit[cut:j], line[cut:j])
+            cut = j
+            yield ev
+        if cut < len(sv):
+            yield PeriodBatch(qpos[cut:], inc[cut:], feed[cut:], limit[cut:], line[cut:])
+
+    def stand(self, seconds: float, line: int) -> Iterator[PeriodBatch]:
+        """A dwell: periods standing where the machine is."""
+        n = int(round(seconds / self.T))
+        while n > 0:
+            k = min(n, self.batch_periods)
+            qpos = np.repeat((self.blu * self.blu_mm)[None, :], k, axis=0)
+            yield PeriodBatch(qpos, np.zeros((k, 3), np.int64), np.zeros(k),
+                              np.full(k, LIMIT_DWELL, np.int8), np.full(k, line, np.int32))
+            n -= k
+
+
+def _nurbs_points(pos, loc, sv, s_prev, mask, pieces: Pieces, pstart: np.ndarray,
+                  nurbs: dict[int, NurbsDriver]) -> None:
+    """Fill pos where mask is set by walking each NURBS piece's stepper, run by run, so
+    that each stepper sees its periods in order with the step from the one before."""
+    idx = np.nonzero(mask)[0]
+    runs = np.split(idx, np.nonzero(np.diff(idx) != 1)[0] + 1)
+    for run in runs:
+        p = int(loc[run[0]])
+        if not np.all(loc[run] == p):
+            sub = np.split(run, np.nonzero(np.diff(loc[run]) != 0)[0] + 1)
+        else:
+            sub = [run]
+        for r in sub:
+            p = int(loc[r[0]])
+            before = sv[r[0] - 1] if r[0] > 0 else s_prev
+            drv = nurbs[int(pieces.nurbs[p])]
+            pos[r] = drv.points(sv[r] - pstart[p], before - pstart[p])

@@ -1,0 +1,378 @@
+"""Path pieces for the feed stage: motion entities turned into one arc-length-parametrised path.
+
+Every analytic piece (a line, a G2/G3 arc or helix, or a G64 corner blend) shares one
+form, evaluated by arc length sigma in [0, length]:
+
+    p(sigma) = c + r(phi) (cos(phi) e1 + sin(phi) e2) + w sigma,  phi = omega sigma,
+    r(phi) = radius + dr * phi
+
+(a line has radius 0 and w its unit direction; an arc whose end lies slightly off the
+circle spirals by dr so that it ends exactly on its end point). NURBS pieces refer to
+their entity and are walked by its stepper; the planner only samples their geometry.
+
+Corner blending (G64 P): the corner between two line-like moves is replaced by the
+circular arc tangent to both whose deviation from the corner is P,
+R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
+(theta the change of direction); a corner between a line and an arc, or two arcs, gets a
+cubic of the same size. A corner that involves a NURBS gets a cubic sized by the same
+rule and checked against the programmed corner (ipo.feed.blends.nurbs_corner); the NURBS is trimmed to
+the part between its blends (ipo.nurbs.subcurve), which its stepper walks. In S-curve mode a
+corner between two lines gets a curvature-continuous quintic within P instead of the arc
+(ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. G61 and P0 corners,
+reversals and corners where no blend fits are not blended: the planner crosses them within
+one period at the corner cap (ipo.feed.limits.corner_cap).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from ipo.nurbs import kernel as nk
+from ipo.errors import ARC_RADIUS, IpoError
+from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
+from ipo.feed.blends.nurbs_corner import Side, corner_blend
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
+
+KIND_ANALYTIC = 0
+KIND_NURBS = 1  # a NURBS entity: walked by its stepper
+KIND_BLEND = 2  # a corner blend curve (a cubic or quintic Bezier): evaluated by arc length directly
+_COLLINEAR_RAD = 1e-9  # corners sharper than this are crossed as they are
+_REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
+_CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs and NURBS are crossed as they are
+_MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 nm step)
+BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])  # a corner blend: one cubic Bezier span
+
+
+@dataclass(slots=True)
+class Pieces:
+    """P consecutive pieces: arrays of length P (vectors (P, 3))."""
+
+    c: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    w: np.ndarray
+    radius: np.ndarray
+    dr: np.ndarray
+    omega: np.ndarray
+    length: np.ndarray
+    kind: np.ndarray  # KIND_*
+    nurbs: np.ndarray  # index into the owner's NURBS list, -1 for analytic pieces
+    line: np.ndarray  # source line
+    feed_mm_s: np.ndarray  # programmed feed; the rapid rate for G0
+    rapid: np.ndarray  # bool: G0 (feed override does not apply)
+    stop_after: np.ndarray  # bool: the machine stands still at the piece's end
+    corner_tol_mm: np.ndarray  # path deviation tolerated where the piece ends in a sharp corner
+    rpm: np.ndarray  # spindle speed while the piece runs (roughness limiter)
+
+    def __len__(self) -> int:
+        return len(self.length)
+
+    @staticmethod
+    def concat(parts: list["Pieces"]) -> "Pieces":
+        return Pieces(*(np.concatenate([getattr(p, f) for p in parts]) for f in Pieces.__slots__))
+
+    def take(self, idx) -> "Pieces":
+        return Pieces(*(getattr(self, f)[idx] for f in Pieces.__slots__))
+
+
+def _empty(n: int) -> Pieces:
+    z3 = np.zeros((n, 3))
+    return Pieces(z3.copy(), z3.copy(), z3.copy(), z3.copy(), np.zeros(n), np.zeros(n), np.zeros(n),
+                  np.zeros(n), np.zeros(n, np.int8), np.full(n, -1, np.int32), np.zeros(n, np.int32),
+                  np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), np.zeros(n), np.zeros(n))
+
+
+def evaluate(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Points (N, 3) of analytic pieces idx at arc lengths sigma."""
+    phi = pc.omega[idx] * sigma
+    r = pc.radius[idx] + pc.dr[idx] * phi
+    return (pc.c[idx] + (r * np.cos(phi))[:, None] * pc.e1[idx] + (r * np.sin(phi))[:, None] * pc.e2[idx]
+            + sigma[:, None] * pc.w[idx])
+
+
+def frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangent and curvature vector d(tangent)/ds of analytic pieces (the spiral term dr,
+    at most microns over a whole arc, is left out)."""
+    t = pc.w[idx].copy()
+    k = np.zeros_like(t)
+    curved = np.nonzero(pc.omega[idx] != 0)[0]
+    if len(curved):
+        t[curved], k[curved] = _curved_frame(pc, idx[curved], sigma[curved])
+    return t, k
+
+
+def _curved_frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    phi = pc.omega[idx] * sigma
+    ro = (pc.radius[idx] * pc.omega[idx])[:, None]
+    cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    t = ro * (cs * pc.e2[idx] - sn * pc.e1[idx]) + pc.w[idx]
+    k = -(ro * pc.omega[idx][:, None]) * (cs * pc.e1[idx] + sn * pc.e2[idx])
+    return t, k
+
+
+class Motion(NamedTuple):
+    """A motion entity with the state it runs under, as the builder receives it."""
+
+    entity: Line | Rapid | Arc | Nurbs
+    rpm: float
+    nurbs_index: int  # index into the owner's NURBS list, -1 otherwise
+
+
+def motion_length(m: Motion, nurbs) -> float:
+    """Arc length of a pending motion (its NURBS's from the driver in `nurbs`)."""
+    e = m[0]
+    if isinstance(e, Nurbs):
+        return nurbs[m[2]].table.length
+    if isinstance(e, Arc):
+        a, b, n = PLANE_AXES[e.plane]
+        return float(np.hypot(e.radius_mm * abs(e.sweep_rad), e.end[n] - e.start[n]))
+    return float(np.linalg.norm(np.subtract(e.end, e.start)))
+
+
+def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
+    a, b, n = PLANE_AXES[e.plane]
+    ua, ub, un = np.eye(3)[a], np.eye(3)[b], np.eye(3)[n]
+    start, end, centre = np.array(e.start), np.array(e.end), np.array(e.center)
+    r0 = e.radius_mm
+    if not r0 > 0:
+        raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", e.line)
+    r1 = float(np.hypot(end[a] - centre[a], end[b] - centre[b]))
+    sweep = e.sweep_rad
+    theta = abs(sweep)
+    e1 = ((start[a] - centre[a]) * ua + (start[b] - centre[b]) * ub) / r0
+    e2 = np.cross(un, e1) * np.sign(sweep)  # CCW turns from the first plane axis to the second
+    rise = end[n] - start[n]
+    length = float(np.hypot(0.5 * (r0 + r1) * theta, rise))
+    pc.c[i] = centre + (start[n] - centre[n]) * un
+    pc.e1[i], pc.e2[i] = e1, e2
+    pc.w[i] = un * rise / length
+    pc.radius[i] = r0
+    pc.dr[i] = (r1 - r0) / theta
+    pc.omega[i] = theta / length
+    pc.length[i] = length
+
+
+def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
+          rapid_mm_s: float, nurbs, add_blend, min_blend_radius_mm: float = 0.0,
+          g2_limits: tuple[float, float, float, float] | None = None) -> tuple[Pieces, float]:
+    """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
+
+    Without `final`, the last motion is held back (its end corner needs the next move);
+    the returned trim is how much of its start the corner blend already took: pass it
+    back as lead_trim_mm with the held-back motion first in the next call.
+    `nurbs` maps the owner's NURBS index to its driver (ipo.feed.nurbs_driver: entity, arc-length
+    table, trimmed()); a NURBS trimmed by corner blends gets the driver of its remaining part
+    at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
+    its index. A corner whose blend radius would be below min_blend_radius_mm is not blended
+    (S-curve mode: ipo.feed.limits.min_blend_radius_mm). With g2_limits = (a, j, x_min, step)
+    (S-curve mode: ipo.feed.limits.g2_blend_limits) a corner between two lines gets the
+    curvature-continuous blend of ipo.feed.blends.curvature_continuous where it is faster than both the arc and a
+    stop (ipo.feed.blends.curvature_continuous.g2_corners).
+    """
+    n = len(motions)
+    ents = [m[0] for m in motions]
+    tol_of: dict = {}
+    for path in {id(e.path): e.path for e in ents}.values():
+        tol_of[id(path)] = (0.0 if path.exact_stop else blend_default_mm if path.blend_tol_mm is None
+                            else float(path.blend_tol_mm))
+    kinds = [type(e) for e in ents]
+    pts = np.array([e.start + e.end for e in ents], dtype=float).reshape(n, 6)
+    start, end = pts[:, :3], pts[:, 3:]
+    rapid = np.array([k is Rapid for k in kinds])
+    line_like = rapid | np.array([k is Line for k in kinds])
+    feed = np.array([rapid_mm_s if e.feed_mm_s is None else e.feed_mm_s for e in ents], dtype=float)
+    lines = np.array([e.line for e in ents], dtype=np.int32)
+    rpm = np.array([m[1] for m in motions], dtype=float)
+    tol = np.array([tol_of[id(e.path)] for e in ents])
+    exact = np.array([e.path.exact_stop for e in ents])
+    vec = end - start
+    length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
+    unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
+    arcs = _empty(n)  # the untrimmed arcs, for their lengths, tangents and points
+    is_arc = np.zeros(n, bool)
+    is_nurbs = np.array([k is Nurbs for k in kinds])
+    t_in, t_out = unit.copy(), unit.copy()
+    for i, e in enumerate(ents):
+        if isinstance(e, Arc):
+            _arc_piece(arcs, i, e)
+            is_arc[i] = True
+            length[i] = arcs.length[i]
+            ends = frame(arcs, np.array([i, i]), np.array([0.0, length[i]]))[0]
+            t_in[i], t_out[i] = ends
+        elif is_nurbs[i]:
+            tab = nurbs[motions[i][2]].table
+            length[i] = tab.length
+            t_in[i], t_out[i] = tab.t[0], tab.t[-1]
+    # corner blends: junction j joins moves j and j+1
+    trim_in, trim_out = np.zeros(n), np.zeros(n)
+    trim_in[0] = lead_trim_mm
+    both = line_like[:-1] & line_like[1:] & (length[:-1] > 0) & (length[1:] > 0) & (tol[:-1] > 0)
+    cos_t = np.clip(np.einsum("ij,ij->i", t_out[:-1], t_in[1:]), -1.0, 1.0)
+    theta = np.arccos(cos_t)
+    blend = both & (theta > _COLLINEAR_RAD) & (theta < _REVERSAL_RAD)
+    half = np.where(blend, 0.5 * theta, 0.25)
+    # a blend may take half of each move, and on an arc no more than a tenth of its radius
+    reach = np.where(is_arc, np.minimum(0.5 * length, 0.1 * arcs.radius), 0.5 * length)
+    avail = np.minimum(reach[:-1], reach[1:])
+    with np.errstate(divide="ignore"):  # a turn so slight that sec = 1 in floats: any R is within P
+        r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
+    radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
+    g2, d_g2 = np.zeros_like(blend), np.zeros(n - 1)
+    if g2_limits is not None:
+        # the held-back last move's end corner is not known yet: taken as one that fills its half
+        g2, d_g2 = g2_corners(2.0 * half, tol[:-1], avail, radius, blend & (radius >= min_blend_radius_mm),
+                              length, lead_trim_mm, 0.0 if final else 0.5 * length[-1], g2_limits)
+        g2 &= blend
+    blend &= g2 | (radius >= min_blend_radius_mm)
+    radius = np.where(blend, radius, 0.0)
+    d = np.where(g2, d_g2, radius * np.tan(half))
+    # a corner that involves an arc gets a cubic blend from the point d before it to the
+    # point d after it, tangent to both moves, with the handles of a circular arc of
+    # radius d / tan(theta / 2): sized like the circular blend between lines
+    movable = line_like | is_arc
+    curve = (movable[:-1] & movable[1:] & ~both & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
+             & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
+    half_c = np.where(curve, 0.5 * theta, 0.25)
+    r_c = np.minimum(tol[:-1] / (1.0 / np.cos(half_c) - 1.0), avail / np.tan(half_c))
+    curve &= r_c >= min_blend_radius_mm
+    d = np.where(curve, r_c * np.tan(half_c), d)
+    at_nurbs = ((is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
+                & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
+    nurbs_blends = {}
+    for j in np.nonzero(at_nurbs)[0]:
+        before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
+        after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
+        found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
+        if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
+            d[j], nurbs_blends[j] = found
+    trim_out[:-1] = d
+    trim_in[1:] += d
+    emit = n if final else n - 1
+    pc = _empty(2 * emit)  # even slots: each move's own piece; odd slots: the blend at its end
+    own, bl = np.arange(0, 2 * emit, 2), np.arange(1, 2 * emit, 2)
+    for arr, vals in ((pc.line, lines), (pc.rapid, rapid), (pc.feed_mm_s, feed), (pc.rpm, rpm)):
+        arr[own] = vals[:emit]
+        arr[bl] = vals[:emit]
+    ll = line_like[:emit]
+    pc.c[own] = start[:emit] + unit[:emit] * trim_in[:emit, None]
+    pc.w[own] = unit[:emit]
+    pc.length[own] = np.where(ll, np.maximum(length[:emit] - trim_in[:emit] - trim_out[:emit], 0.0), 0.0)
+    pc.stop_after[own] = exact[:emit]
+    if final:
+        pc.stop_after[own[-1]] = True
+    pc.corner_tol_mm[own] = tol[:emit]
+    jb = np.nonzero(blend[:emit] & ~g2[:emit])[0]
+    t1, t2 = unit[jb], unit[jb + 1]
+    m_perp = (t2 - np.cos(theta[jb])[:, None] * t1) / np.sin(theta[jb])[:, None]
+    k = bl[jb]
+    pc.c[k] = end[jb] - t1 * d[jb, None] + radius[jb, None] * m_perp
+    pc.e1[k], pc.e2[k] = -m_perp, t1
+    pc.radius[k] = radius[jb]
+    pc.omega[k] = 1.0 / radius[jb]
+    pc.length[k] = radius[jb] * theta[jb]
+    for j in np.nonzero(curve[:emit])[0]:
+        a_pt, b_pt = _point(arcs, start, unit, is_arc, j, length[j] - d[j]), _point(arcs, start, unit, is_arc,
+                                                                                    j + 1, d[j])
+        ta = _tangent(arcs, unit, is_arc, j, length[j] - d[j])
+        tb = _tangent(arcs, unit, is_arc, j + 1, d[j])
+        h = 4.0 / 3.0 * np.tan(0.25 * theta[j]) * r_c[j]  # cubic approximation of a circular arc
+        _put_blend(pc, bl[j], np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), nurbs, add_blend)
+    for j, ctrl in nurbs_blends.items():
+        _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
+    for j in np.nonzero(g2[:emit])[0]:
+        _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
+    for i in np.nonzero(~ll)[0]:
+        e, slot = ents[i], 2 * i
+        if isinstance(e, Arc):
+            _copy_trimmed_arc(pc, slot, arcs, i, trim_in[i], trim_out[i])
+        else:
+            _trimmed_nurbs(pc, slot, motions[i][2], nurbs, trim_in[i], trim_out[i])
+    keep = pc.length > _MIN_PIECE_MM  # blends may leave float-noise remnants of a straight
+    return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
+
+
+def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:
+    """The cubic (or G2 quintic) Bezier with control points ctrl as the blend piece in slot
+    (whose line and feed, those of the move before it, are set)."""
+    knots = BEZIER3_KNOTS if len(ctrl) == 4 else BEZIER5_KNOTS
+    idx = add_blend(Nurbs(int(pc.line[slot]), len(ctrl) - 1, knots.copy(), np.ones(len(ctrl)), ctrl,
+                          float(pc.feed_mm_s[slot])))
+    pc.kind[slot] = KIND_BLEND
+    pc.nurbs[slot] = idx
+    pc.length[slot] = nurbs[idx].table.length
+    pc.c[slot] = ctrl[0]
+
+
+def _trimmed_nurbs(pc: Pieces, slot: int, k: int, nurbs, trim_in: float, trim_out: float) -> None:
+    """The NURBS with owner index k without its first trim_in and last trim_out millimetres of
+    arc length; its driver is replaced by the one of that part (dropped if nothing is left)."""
+    drv = nurbs[k]
+    tab = drv.table
+    if trim_in > 0 or trim_out > 0:
+        if tab.length - trim_in - trim_out <= _MIN_PIECE_MM:
+            del nurbs[k]
+            pc.length[slot] = 0.0  # dropped with the other remnants
+            return
+        u0, u1 = tab.u_at(drv.entity, np.array([trim_in, tab.length - trim_out]))
+        drv = nurbs[k] = drv.trimmed(float(u0), float(u1))
+    pc.kind[slot] = KIND_NURBS
+    pc.nurbs[slot] = k
+    pc.length[slot] = drv.table.length
+    pc.c[slot] = drv.entity.points[0]
+
+
+def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_end: bool) -> Side:
+    """Move i next to a corner at its end (from_end) or start, by distance from the corner."""
+    sign, base = (-1.0, length[i]) if from_end else (1.0, 0.0)
+    if isinstance(e, Nurbs):
+        drv = nurbs[k]
+        u_corner = float(e.knots[-1] if from_end else e.knots[0])
+        known: dict[float, float] = {}
+
+        def u_of(x):
+            if x not in known:
+                known[x] = float(drv.table.u_at(drv.entity, np.array([base + sign * x]))[0])
+            return known[x]
+
+        def at(x):
+            p, d1 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 1)[:, 0]
+            return p, d1 / np.linalg.norm(d1)
+
+        return Side(at, lambda x, n: nk.curve_points(e.degree, e.knots, e.weights, e.points,
+                                                     np.linspace(u_corner, u_of(x), n)))
+    if isinstance(e, Arc):
+        def arc_at(x):
+            sigma = np.array([base + sign * x])
+            return evaluate(arcs, np.array([i]), sigma)[0], frame(arcs, np.array([i]), sigma)[0][0]
+
+        return Side(arc_at, lambda x, n: evaluate(arcs, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
+    return Side(lambda x: (start[i] + unit[i] * (base + sign * x), unit[i]),
+                lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None])
+
+
+def _point(arcs: Pieces, start, unit, is_arc, i: int, sigma: float) -> np.ndarray:
+    if is_arc[i]:
+        return evaluate(arcs, np.array([i]), np.array([sigma]))[0]
+    return start[i] + unit[i] * sigma
+
+
+def _tangent(arcs: Pieces, unit, is_arc, i: int, sigma: float) -> np.ndarray:
+    if is_arc[i]:
+        return frame(arcs, np.array([i]), np.array([sigma]))[0][0]
+    return unit[i]
+
+
+def _copy_trimmed_arc(pc: Pieces, slot: int, arcs: Pieces, i: int, trim_in: float, trim_out: float) -> None:
+    """The arc i without its first trim_in and last trim_out millimetres."""
+    phi = arcs.omega[i] * trim_in
+    cs, sn = np.cos(phi), np.sin(phi)
+    pc.e1[slot] = cs * arcs.e1[i] + sn * arcs.e2[i]
+    pc.e2[slot] = -sn * arcs.e1[i] + cs * arcs.e2[i]
+    pc.c[slot] = arcs.c[i] + arcs.w[i] * trim_in
+    pc.w[slot] = arcs.w[i]
+    pc.radius[slot] = arcs.radius[i] + arcs.dr[i] * phi
+    pc.dr[slot] = arcs.dr[i]
+    pc.omega[slot] = arcs.omega[i]
+    pc.length[slot] = max(arcs.length[i] - trim_in - trim_out, 0.0)

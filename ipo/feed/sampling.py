@@ -1,0 +1,251 @@
+"""Samples along the path: where the feed limits are evaluated and the look-ahead runs.
+
+Each piece gets samples at both ends (so a corner appears as two samples at the same
+arc length, one with each tangent) and inside, dense enough that the tangent turns by
+at most MAX_TURN_RAD and no two samples are more than MAX_SPACING_MM apart. NURBS are
+sampled adaptively in u until the same holds, which catches every curvature peak the
+spacing can resolve, and their arc length comes from Simpson's rule on |C'(u)|.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ipo.nurbs import kernel as nk
+from ipo.feed.blends.compiled import bezier_points_at, bezier_table
+from ipo.errors import NURBS_PATH, IpoError
+from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS
+from ipo.feed.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces, frame
+
+MAX_TURN_RAD = 0.03
+MAX_SPACING_MM = 2.0
+_NURBS_START_PER_SPAN = 16
+_NURBS_REFINE_ROUNDS = 6
+_END_LEVELS = 4  # samples near each end of a NURBS (nurbs_table)
+ARC_TOL_MM = 1e-7  # arc-length accuracy of the NURBS tables' s(u) (_refine_arc)
+_ARC_REFINE_ROUNDS = 6
+
+
+@dataclass(slots=True)
+class Samples:
+    """K samples: arc length s (global), tangent t (K, 3), curvature vector kv (K, 3),
+    piece index and the arc length sigma inside the piece."""
+
+    s: np.ndarray
+    t: np.ndarray
+    kv: np.ndarray
+    piece: np.ndarray
+    sigma: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.s)
+
+    @staticmethod
+    def concat(parts: list["Samples"]) -> "Samples":
+        return Samples(*(np.concatenate([getattr(p, f) for p in parts]) for f in Samples.__slots__))
+
+    def tail(self, k: int) -> "Samples":
+        return Samples(*(getattr(self, f)[k:] for f in Samples.__slots__))
+
+
+@dataclass(slots=True)
+class NurbsTable:
+    """A NURBS sampled by arc length: s (M,), u (M,), ds/du (M,), unit tangent and curvature
+    vector (M, 3)."""
+
+    s: np.ndarray
+    u: np.ndarray
+    speed: np.ndarray
+    t: np.ndarray
+    kv: np.ndarray
+    end_gap_mm: float = 0.0  # the end samples' gap (nurbs_table), for tables of trimmed parts
+
+    def s_of_u(self, u: float) -> float:
+        """Arc length at u: cubic Hermite on s(u) with ds/du known at the samples."""
+        k = int(np.clip(np.searchsorted(self.u, u, side="right") - 1, 0, len(self.u) - 2))
+        h = self.u[k + 1] - self.u[k]
+        q = (u - self.u[k]) / h
+        h00, h10, h01, h11 = 2*q**3 - 3*q**2 + 1, q**3 - 2*q**2 + q, -2*q**3 + 3*q**2, q**3 - q**2
+        return float(h00 * self.s[k] + h10 * h * self.speed[k] + h01 * self.s[k + 1] + h11 * h * self.speed[k + 1])
+
+    def points_at(self, e, s: np.ndarray) -> np.ndarray:
+        """Points of NURBS e at arc lengths s (see u_at)."""
+        if _is_blend(e):
+            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, np.clip(s, 0.0, self.length),
+                                    _GAUSS_X, _GAUSS_W)
+        return _derivs(e, self.u_at(e, s), 0)[0]
+
+    def u_at(self, e, s: np.ndarray) -> np.ndarray:
+        """Parameters of NURBS e at arc lengths s: u from the table, then Newton on the arc
+        length (integrated by 5-point Gauss-Legendre from the nearest sample)."""
+        s = np.clip(s, 0.0, self.length)
+        k = np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, len(self.s) - 2)
+        h = self.s[k + 1] - self.s[k]
+        q = np.divide(s - self.s[k], h, out=np.zeros_like(s), where=h > 0)
+        u = self.u[k] + q * (self.u[k + 1] - self.u[k])
+        xg, wg = _GAUSS_X, _GAUSS_W
+        for _ in range(3):
+            du = u - self.u[k]
+            uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
+            sp = np.linalg.norm(_derivs(e, uu.ravel(), 1)[1],
+                                axis=1).reshape(uu.shape)
+            s_u = self.s[k] + 0.5 * du * (sp @ wg)
+            speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
+            u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
+        return u
+
+    def curvature_at(self, s: np.ndarray) -> np.ndarray:
+        return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
+
+    @property
+    def length(self) -> float:
+        return float(self.s[-1])
+
+
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
+
+
+def _is_bezier3(e) -> bool:
+    return (e.degree == 3 and len(e.points) == 4 and np.array_equal(e.knots, BEZIER3_KNOTS)
+            and bool(np.all(e.weights == 1)))
+
+
+def _is_blend(e) -> bool:
+    """A corner blend (compiled in ipo.feed.blends.compiled): a cubic or the G2 quintic Bezier."""
+    return _is_bezier3(e) or (e.degree == 5 and len(e.points) == 6 and np.array_equal(e.knots, BEZIER5_KNOTS)
+                              and bool(np.all(e.weights == 1)))
+
+
+def _derivs(e, u: np.ndarray, n: int) -> np.ndarray:
+    """C(u) and its first n derivatives; a cubic Bezier (the corner blends) in closed form."""
+    if _is_bezier3(e):
+        p0, p1, p2, p3 = e.points
+        a1, a2, a3 = 3 * (p1 - p0), 3 * (p2 - 2 * p1 + p0), p3 - 3 * p2 + 3 * p1 - p0
+        uu = np.asarray(u, dtype=float)[:, None]
+        out = [p0 + uu * (a1 + uu * (a2 + uu * a3)), a1 + uu * (2 * a2 + 3 * uu * a3), 2 * a2 + 6 * uu * a3]
+        return np.stack(out[:n + 1])
+    return nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, n)
+
+
+def _nurbs_frame(e, u: np.ndarray):
+    d = _derivs(e, u, 2)
+    d1, d2 = d[1], d[2]
+    speed = np.linalg.norm(d1, axis=1)
+    if np.any(speed <= 0):
+        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
+    t = d1 / speed[:, None]
+    kv = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (speed**2)[:, None]
+    return speed, t, kv
+
+
+def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) -> NurbsTable:
+    """Adaptive arc-length table of a NURBS entity; u_fine, parameters already as fine as the
+    refinement makes them (a part of a tabled curve: ipo.feed.nurbs_driver.trimmed), skips it.
+
+    With end_gap_mm > 0 the table also gets samples end_gap_mm * 4^-j (j < _END_LEVELS)
+    from each end: the profile is linear in v^2 between samples (a constant path
+    acceleration), and the machine brakes into an unblended corner at a curve's end
+    within about that distance, at the halved acceleration of the interval next to it.
+    """
+    if _is_blend(e):  # a corner blend: the same table, compiled
+        *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
+                                  MAX_TURN_RAD, MAX_SPACING_MM)
+        if not ok:
+            raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
+        return NurbsTable(*table)
+    p = e.degree
+    brk = np.unique(e.knots[p:len(e.knots) - p])
+    u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
+                                  for a, b in zip(brk[:-1], brk[1:])])) if u_fine is None else u_fine
+    for _ in range(0 if u_fine is not None else _NURBS_REFINE_ROUNDS):
+        speed, t, kv = _nurbs_frame(e, u)
+        ds = 0.5 * (speed[:-1] + speed[1:]) * np.diff(u)
+        kmax = np.maximum(np.linalg.norm(kv[:-1], axis=1), np.linalg.norm(kv[1:], axis=1))
+        turn = np.maximum(kmax * ds, np.arccos(np.clip(np.einsum("ij,ij->i", t[:-1], t[1:]), -1, 1)))
+        split = np.maximum(np.ceil(turn / MAX_TURN_RAD), np.ceil(ds / MAX_SPACING_MM)).astype(int)
+        if np.all(split <= 1):
+            break
+        split = np.minimum(split, 64)
+        extra = [np.linspace(u[i], u[i + 1], split[i] + 1)[1:-1] for i in np.nonzero(split > 1)[0]]
+        u = np.unique(np.concatenate([u] + extra))
+    if u_fine is None:
+        u = _refine_arc(e, u)
+    if end_gap_mm > 0:
+        u = _with_end_samples(e, u, end_gap_mm)
+    speed, t, kv = _nurbs_frame(e, u)
+    mid_speed, _, _ = _nurbs_frame(e, 0.5 * (u[:-1] + u[1:]))
+    ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
+    return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv, end_gap_mm)
+
+
+def _refine_arc(e, u: np.ndarray) -> np.ndarray:
+    """u with intervals halved until the table's Hermite s(u) at each interval's midpoint
+    agrees with Simpson's rule on its half within ARC_TOL_MM. The NURBS driver reads the
+    stepper's arc position back through s(u) and corrects the difference: an error there
+    becomes a real path error, which in a tight turn rotates with the tangent (an
+    acceleration of error * kappa^2 v^2, 60 mm/s^2 per 0.1 um at kappa = 500/mm, 1.5 mm/s)."""
+    for _ in range(_ARC_REFINE_ROUNDS):
+        h = np.diff(u)
+        q = u[:-1, None] + h[:, None] * np.array([0.25, 0.5, 0.75])
+        sp = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
+        sq = np.linalg.norm(_derivs(e, q.ravel(), 1)[1], axis=1).reshape(-1, 3)
+        left = h / 12 * (sp[:-1] + 4 * sq[:, 0] + sq[:, 1])
+        right = h / 12 * (sq[:, 1] + 4 * sq[:, 2] + sp[1:])
+        hermite = 0.5 * (left + right) + h / 8 * (sp[:-1] - sp[1:])  # s_of_u at the midpoint
+        bad = np.abs(hermite - left) > ARC_TOL_MM
+        if not bad.any():
+            break
+        u = np.unique(np.concatenate([u, q[bad, 1]]))
+    return u
+
+
+def _with_end_samples(e, u: np.ndarray, gap_mm: float) -> np.ndarray:
+    """u with samples about gap_mm * 4^-j of arc length from either end (u by linear
+    interpolation of the trapezoidal arc length; the table's s stays exact)."""
+    speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
+    s = np.concatenate([[0.0], np.cumsum(0.5 * (speed[:-1] + speed[1:]) * np.diff(u))])
+    if s[-1] <= 3 * gap_mm:
+        return u
+    d = gap_mm * 0.25 ** np.arange(_END_LEVELS)
+    return np.unique(np.concatenate([u, np.interp(np.concatenate([d, s[-1] - d]), s, u)]))
+
+
+def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: float = 0.0) -> Samples:
+    """Samples of all pieces, arc length counted from s0 at the first piece's start.
+
+    Analytic pieces also get a sample end_gap_mm from each end, so that the short
+    stretch next to a sharp corner (where the planner halves the path acceleration) stays
+    short; a shorter one gets its midpoint instead.
+    """
+    n_int = np.maximum(np.ceil(pc.length / MAX_SPACING_MM), np.ceil(pc.omega * pc.length / MAX_TURN_RAD))
+    n_int = np.maximum(n_int, 1).astype(np.int64)
+    nurbs_idx = np.nonzero(pc.kind != KIND_ANALYTIC)[0]
+    for i in nurbs_idx:
+        n_int[i] = len(tables[int(pc.nurbs[i])].s) - 1
+    counts = n_int + 1
+    piece = np.repeat(np.arange(len(pc)), counts)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    j = np.arange(len(piece)) - np.repeat(first, counts)
+    sigma = pc.length[piece] * j / n_int[piece]
+    analytic = pc.kind == KIND_ANALYTIC
+    gap = analytic & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
+    # a short piece between two corners gets its midpoint: the profile is linear in v^2
+    # between samples, so without it the piece is crossed at its slower corner's speed
+    mid = analytic & ~gap & (n_int == 1) & (end_gap_mm > 0)
+    if gap.any() or mid.any():
+        g, h = np.nonzero(gap)[0], np.nonzero(mid)[0]
+        piece = np.concatenate([piece, g, g, h])
+        sigma = np.concatenate([sigma, np.full(len(g), end_gap_mm), pc.length[g] - end_gap_mm,
+                                0.5 * pc.length[h]])
+        order = np.lexsort((sigma, piece))
+        piece, sigma = piece[order], sigma[order]
+        counts = np.bincount(piece, minlength=len(pc))
+        first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    t, kv = frame(pc, piece, sigma)
+    for i in nurbs_idx:
+        tab = tables[int(pc.nurbs[i])]
+        sl = slice(first[i], first[i] + counts[i])
+        sigma[sl], t[sl], kv[sl] = tab.s, tab.t, tab.kv
+    starts = s0 + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
+    return Samples(starts[piece] + sigma, t, kv, piece, sigma)
