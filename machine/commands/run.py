@@ -127,6 +127,16 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
         return controller.run(program, progress=lambda line: bar.update(task, completed=line))
 
 
+def _write_report(out, digest, program, result, machine_file) -> None:
+    from machine.report.build import machine_info, run_report
+
+    if digest.periods == 0:
+        click.echo(f"{program.file}: nothing moved, no report written", err=True)
+        return
+    run_report(out, digest, program=program, summary=result.summary(), machine=machine_info(machine_file))
+    click.echo(f"report written to {out}", err=True)
+
+
 @click.command("run")
 @click.argument("file", type=INPUT_FILE)
 @click.option("--machine", "machine_file", type=INPUT_FILE, help="Machine TOML (default: built in).")
@@ -136,6 +146,8 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
 @click.option("--feed-override", type=float, default=100.0, show_default=True, help="Feed override in percent.")
 @click.option("--trace", "trace_file", type=OutputPath((".npz", ".csv")), help="Write the trace (.npz or .csv).")
 @click.option("--plot", "plot_file", type=OutputPath((".png",)), help="Plot the run into a PNG.")
+@click.option("--report", "report_file", type=OutputPath((".html", ".htm")),
+              help="Write an interactive one-file HTML report of the run.")
 @click.option("--realtime", is_flag=True, help="Pace at the period; keys: space hold/resume, +/- override, s stop.")
 @click.option("--optional-stop", is_flag=True, help="Honour M1 optional stops.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
@@ -144,12 +156,13 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
 @click.option("--tool", "tool", type=int, help="The tool cutting the workpiece from the start (default: the "
               "program's first T… M6, else the [finishing] tool).")
 @click.option("--grid-um", type=float, help="Z-map spacing in um (default: from the tool and the chord tolerance).")
-@click.option("--surface", "surface_files", multiple=True, type=click.Path(dir_okay=False),
+@click.option("--surface", "surface_files", multiple=True, type=OutputPath((".npz", ".stl", ".png")),
               help="Write the machined surface: .npz (x_mm, y_mm, z_mm, gouge_line), .stl or .png; repeatable.")
-def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, realtime, optional_stop,
-            as_json, stock_text, tool, grid_um, surface_files):
+def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, report_file, realtime,
+            optional_stop, as_json, stock_text, tool, grid_um, surface_files):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
+    from machine.report.digest import DigestSink
     from machine.trace import MemoryTrace, load_trace, open_writer
     from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
 
@@ -189,7 +202,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     meta = dict(controller.limits.meta(), file=str(file))
     writer = open_writer(trace_file, meta, servo) if trace_file else None
     memory = MemoryTrace(meta) if plot_file and not trace_file else None
-    controller.sinks = [s for s in (writer, memory, workpiece) if s is not None]
+    digest = DigestSink(meta, servo=servo) if report_file else None
+    controller.sinks = [s for s in (writer, memory, digest, workpiece) if s is not None]
     try:
         with _Compiling() as compiling:
             if realtime:
@@ -221,4 +235,6 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
             click.echo(f"plot written to {plot_file}", err=True)
         else:
             click.echo(f"{file}: nothing moved, no plot written", err=True)
+    if report_file:
+        _write_report(report_file, digest.finish(), program, result, machine_file)
     sys.exit({"completed": 0, "stopped": 0, "interrupted": 130}.get(result.state, 1))

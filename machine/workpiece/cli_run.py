@@ -7,18 +7,12 @@ from pathlib import Path
 import click
 
 from machine.workpiece.stock import Stock, StockError
-from machine.workpiece.surface_file import SUFFIXES
 from machine.workpiece.tool import ToolError
 
 
 def check_surface_outputs(surface_files, stock_text, tool, grid_um, config) -> bool:
-    """Before anything runs: the output names and the options; True when the run cuts a workpiece."""
-    for path in surface_files:
-        if Path(path).suffix.lower() not in SUFFIXES:
-            raise click.BadParameter(f"{path}: use {', '.join(SUFFIXES)}", param_hint="--surface")
-        parent = Path(path).resolve().parent
-        if not parent.is_dir():
-            raise click.BadParameter(f"{path}: the folder {parent} does not exist", param_hint="--surface")
+    """Before anything runs (the output paths are checked by their option type): the workpiece options;
+    True when the run cuts a workpiece."""
     if stock_text is not None:
         try:
             Stock.parse(stock_text)

@@ -9,8 +9,6 @@ import numpy as np
 
 from machine.workpiece.zmap import Surface
 
-SUFFIXES = (".npz", ".stl", ".png")
-
 
 def save_npz(surface: Surface, path, gouge_line: np.ndarray | None = None) -> None:
     gouge = np.zeros_like(surface.line) if gouge_line is None else gouge_line

@@ -1,0 +1,104 @@
+"""What goes into a report: a run's digest, its summary and context, laid into the page's data.
+
+`run_report` writes the report of one run, `compare_report` that of two runs
+aligned by distance with their differences. Each run becomes a section of typed
+arrays named r<k>_* in the blob and an entry of `info["runs"]`; report.js reads
+the same names.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ipo.contracts import LIMIT_NAMES
+from machine.report.digest import ROW, Digest
+from machine.report.envelope import EnvelopeData
+from machine.report.page import Blob, write_page
+
+LIMIT_COLOURS = ("#66bb6a", "#42a5f5", "#ffa726", "#ec407a", "#7e57c2", "#fdd835", "#9e9e9e")
+
+
+def _source_lines(path: str | Path, wanted: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """The text of the executed source lines (1-based numbers), as the file has them."""
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return np.zeros(0, dtype=np.int32), []
+    lines = np.unique(wanted)
+    lines = lines[(lines >= 1) & (lines <= len(text))]
+    return lines.astype(np.int32), [text[n - 1].rstrip() for n in lines]
+
+
+def _add_envelope(blob: Blob, prefix: str, env: EnvelopeData) -> None:
+    blob.add(prefix + "lo", env.lo, "f4")
+    blob.add(prefix + "hi", env.hi, "f4")
+    blob.add(prefix + "arg_lo", env.arg_lo, "i4")
+    blob.add(prefix + "arg_hi", env.arg_hi, "i4")
+    blob.add(prefix + "s", env.first_rows[:, ROW.index("s")], "f8")
+    blob.add(prefix + "reason", env.dominant(), "u1")
+
+
+def add_run(blob: Blob, k: int, digest: Digest, *, name: str, program_file: str | Path, rapid_lines,
+            summary: dict | None = None, warnings=(), messages=(), machine: dict | None = None,
+            surface: dict | None = None) -> dict:
+    """Lay one run into the blob; the returned dict is its entry in info["runs"]."""
+    p = f"r{k}_"
+    _add_envelope(blob, p + "env_", digest.env)
+    blob.add(p + "run_first", digest.run_first_period, "i4")
+    blob.add(p + "run_line", digest.run_line, "i4")
+    rows = digest.path_rows
+    blob.add(p + "path_period", digest.path_period, "i4")
+    blob.add(p + "path_xyz", rows[:, 0:3], "f4")
+    blob.add(p + "path_s", rows[:, ROW.index("s")], "f8")
+    blob.add(p + "path_feed", rows[:, ROW.index("feed")], "f4")
+    blob.add(p + "path_limit", rows[:, ROW.index("limit")], "u1")
+    line = rows[:, ROW.index("line")].astype(np.int64)
+    blob.add(p + "path_line", line, "i4")
+    blob.add(p + "path_rapid", np.isin(line, np.fromiter(rapid_lines, dtype=np.int64)), "u1")
+    numbers, texts = _source_lines(program_file, digest.run_line)
+    blob.add(p + "text_line", numbers, "i4")
+    blob.add_text(p + "text", texts)
+    has_surface = surface is not None
+    if has_surface:  # the virtual workpiece's height map, when the run computed one
+        blob.add(p + "surf_x", surface["x_mm"], "f4")
+        blob.add(p + "surf_y", surface["y_mm"], "f4")
+        blob.add(p + "surf_z", surface["z_mm"], "f4")
+    meta = digest.meta
+    return {"name": name, "file": str(program_file), "period_s": digest.period_s, "periods": digest.periods,
+            "width": digest.env.width, "signals": list(digest.signals),
+            "limits": {"v": meta.get("max_velocity_mm_s"), "a": meta.get("max_accel_mm_s2"),
+                       "j": meta.get("max_jerk_mm_s3")},
+            "stencil_periods": meta.get("stencil_periods", 1),
+            "summary": summary or {}, "warnings": [str(w) for w in warnings], "messages": list(messages),
+            "machine": machine or {}, "surface": has_surface}
+
+
+def machine_info(machine_file: str | None) -> dict:
+    """The machine file's name and text (the packaged default when none was given)."""
+    from importlib import resources
+
+    if machine_file is None:
+        text = resources.files("ipo").joinpath("machine.toml").read_text(encoding="utf-8")
+        return {"path": "(built-in default: ipo/machine.toml)", "text": text}
+    return {"path": str(machine_file), "text": Path(machine_file).read_text(encoding="utf-8", errors="replace")}
+
+
+def _base_info(kind: str) -> dict:
+    return {"kind": kind, "limit_names": list(LIMIT_NAMES), "limit_colours": list(LIMIT_COLOURS),
+            "written": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
+
+
+def run_report(out: str | Path, digest: Digest, *, program, summary: dict, machine: dict,
+               surface: dict | None = None) -> Path:
+    """The report of one run: `program` is the checked ipr Program (warnings, rapids, file)."""
+    from ipr.entities import Rapid
+
+    blob = Blob()
+    rapid = {e.line for e in program.entities if isinstance(e, Rapid)}
+    entry = add_run(blob, 0, digest, name=Path(program.file).name, program_file=program.file, rapid_lines=rapid,
+                    summary=summary, warnings=program.warnings, messages=summary.get("messages", ()),
+                    machine=machine, surface=surface)
+    info = dict(_base_info("run"), runs=[entry])
+    return write_page(out, f"vcnc run {program.file}", info, blob)
