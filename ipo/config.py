@@ -22,7 +22,8 @@ ACCEL_MODES = ("trapezoid", "scurve")
 SERVO_MODELS = ("none", "lag", "pd")
 TOOL_SHAPES = ("flat", "ball", "bull")
 AXIS_NAMES = ("x", "y", "z")
-WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60))
+WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60)) + ("G59.1", "G59.2", "G59.3")
+DIALECTS = ("linuxcnc", "fanuc", "haas", "mach3", "grbl")
 
 
 # key pattern (an axis, tool or work offset name as *) -> inclusive (low, high) and why the bounds
@@ -85,6 +86,7 @@ class Tool:
     length_mm: float = 0.0
     ball_radius_mm: float = 0.0  # 0 for a flat end mill
     flutes: int = 2
+    radius_mm: float = 0.0       # cutter radius for G41/G42 (D)
     shape: str = ""  # flat | ball | bull; "" = ball if ball_radius_mm > 0, else flat
     diameter_mm: float = 0.0  # 0 = 2 * ball_radius_mm
     corner_radius_mm: float = 0.0  # bull nose only
@@ -121,6 +123,10 @@ class MachineConfig:
     finishing: Finishing | None = None
     servo: Servo = Servo()
     accel_mode: Literal["trapezoid", "scurve"] = "trapezoid"
+    dialect: str = "linuxcnc"    # ipr.dialect: what posts of other controls write
+    g28_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)   # G28/G30 stored positions at start (machine)
+    g30_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    user_mcodes: dict[int, str] = field(default_factory=dict)   # M100..M199 the machine has
     # the interpreter's (ipr.Setup): subroutine file folders, loop limit, Fanuc M99 endless repeat
     subroutine_path: tuple[str, ...] = ()
     max_loop_iterations: int = 10_000_000
@@ -183,7 +189,8 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
         if not isinstance(t, dict):
             raise ConfigError(f"tools.{key}", "must be a table")
-        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "shape", "diameter_mm", "corner_radius_mm"}, prefix)
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "radius_mm", "shape", "diameter_mm",
+                      "corner_radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
         if isinstance(flutes, bool) or not isinstance(flutes, int):
             raise ConfigError(prefix + "flutes", f"must be an integer, got {flutes!r}")
@@ -191,6 +198,7 @@ def _tools(table: Any) -> dict[int, Tool]:
         tools[int(key)] = _tool_shape(Tool(
             _number(t.get("length_mm", 0.0), prefix + "length_mm"),
             _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm", nonneg=True), flutes,
+            _number(t.get("radius_mm", 0.0), prefix + "radius_mm", nonneg=True),
             _choice(t["shape"], prefix + "shape", TOOL_SHAPES) if "shape" in t else "",
             _number(t.get("diameter_mm", 0.0), prefix + "diameter_mm", nonneg=True),
             _number(t.get("corner_radius_mm", 0.0), prefix + "corner_radius_mm", nonneg=True)), prefix)
@@ -207,7 +215,7 @@ def _tool_shape(tool: Tool, prefix: str) -> Tool:
                                                       f"({tool.ball_radius_mm}), got {tool.diameter_mm}")
         if diameter <= 0:
             raise ConfigError(prefix + "diameter_mm", "a ball needs diameter_mm or ball_radius_mm")
-        return Tool(tool.length_mm, diameter / 2.0, tool.flutes, shape, diameter, 0.0)
+        return dataclasses.replace(tool, ball_radius_mm=diameter / 2.0, shape=shape, diameter_mm=diameter)
     if tool.ball_radius_mm > 0:
         raise ConfigError(prefix + "ball_radius_mm", f"only a ball has a ball radius (shape = {shape!r})")
     if shape == "bull" and not 0 < tool.corner_radius_mm <= diameter / 2.0:
@@ -215,7 +223,7 @@ def _tool_shape(tool: Tool, prefix: str) -> Tool:
                                                        f"({diameter / 2.0}), got {tool.corner_radius_mm}")
     if shape == "flat" and tool.corner_radius_mm:
         raise ConfigError(prefix + "corner_radius_mm", "a flat end mill has no corner radius (use shape = 'bull')")
-    return Tool(tool.length_mm, 0.0, tool.flutes, shape, diameter, tool.corner_radius_mm)
+    return dataclasses.replace(tool, shape=shape, diameter_mm=diameter)
 
 
 def _stock(table: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -244,6 +252,25 @@ def _work_offsets(table: Any) -> dict[str, tuple[float, float, float]]:
         if not isinstance(v, list) or len(v) != 3:
             raise ConfigError(k, f"must be a list of 3 numbers, got {v!r}")
         out[key] = tuple(_number(c, k) for c in v)
+    return out
+
+
+def _position(v: Any, key: str) -> tuple[float, float, float]:
+    if not isinstance(v, list) or len(v) != 3:
+        raise ConfigError(key, f"must be a list of 3 numbers, got {v!r}")
+    return tuple(_number(c, key) for c in v)
+
+
+def _user_mcodes(table: Any) -> dict[int, str]:
+    """user_mcodes: "M100" = "what it does", for M100..M199."""
+    if not isinstance(table, dict):
+        raise ConfigError("user_mcodes", "must be a table")
+    out = {}
+    for key, text in table.items():
+        number = str(key).upper().removeprefix("M")
+        if not number.isdigit() or not 100 <= int(number) <= 199 or not isinstance(text, str):
+            raise ConfigError(f"user_mcodes.{key}", "keys are M100..M199, values describe the code")
+        out[int(number)] = text
     return out
 
 
@@ -297,7 +324,7 @@ def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
            "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
-           "max_loop_iterations", "m99_repeat", "stock"}
+           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes", "stock"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -320,6 +347,10 @@ def config_from_dict(data: dict) -> MachineConfig:
         finishing=_finishing(data["finishing"], tools) if "finishing" in data else None,
         servo=_servo(data.get("servo", {})),
         accel_mode=_choice(data.get("accel_mode", "trapezoid"), "accel_mode", ACCEL_MODES),
+        dialect=_choice(data.get("dialect", "linuxcnc"), "dialect", DIALECTS),
+        g28_mm=_position(data.get("g28_mm", [0.0, 0.0, 0.0]), "g28_mm"),
+        g30_mm=_position(data.get("g30_mm", [0.0, 0.0, 0.0]), "g30_mm"),
+        user_mcodes=_user_mcodes(data.get("user_mcodes", {})),
         **_interpreter_keys(data),
         stock_mm=_stock(data["stock"]) if "stock" in data else None,
     )

@@ -19,6 +19,7 @@ from ipr.entities import Diagnostic, GCodeError, Message
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
+from ipr.knockon import KnockOn
 from ipr.plain import compile_arc_step, compile_step
 from ipr.modal import ModalState, Setup, Staged
 from ipr.oword import parse_oword
@@ -53,10 +54,15 @@ class Interpreter:
         self._percents = 0
         self._started = False   # a block with words has been read (then % no longer opens)
         self.done = False
+        self.knock_on = KnockOn()
         self.control = None      # (line, OWord or ("m98", label, count) / ("m99",)) stopped on
 
     # ---- errors -------------------------------------------------------------------
     def _fail(self, err: BlockError, line: int, text: str) -> None:
+        if self.all_errors:
+            if self.knock_on.follows(err.code):
+                return
+            self.knock_on.refused(self._words(text), line)
         col = err.col
         if col is None:
             col = 1
@@ -69,6 +75,15 @@ class Interpreter:
         self.diagnostics.append(diag)
         if not self.all_errors:
             raise GCodeError([diag])
+
+    @staticmethod
+    def _words(text: str):
+        """The (letter, number) words of a refused line (expressions as None), None if it does not parse."""
+        try:
+            block, _ = parse_line_columns(text)
+        except LineSyntaxError:
+            return None
+        return [(letter, v if v.__class__ is float else None) for letter, v in block.words]
 
     def _notice(self, code: str, message: str, line: int, text: str, word: int | None,
                 severity: str = "notice") -> None:
@@ -111,7 +126,7 @@ class Interpreter:
     def run(self, lines: Iterable[str], first: int = 1) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
         returns the number of the last line read."""
-        state, plans, append = self.state, self._plans, self.out.append
+        state, plans, append, doubt = self.state, self._plans, self.out.append, self.knock_on.doubt
         n = first - 1
         for n, text in enumerate(lines, first):
             if self.done:
@@ -128,6 +143,8 @@ class Interpreter:
                     self._template(plan, parts, n, text)
                 else:
                     self._started = True
+                    if doubt:
+                        self.knock_on.settled(plan[1])
             except BlockError as err:
                 self._fail(err, n, text)
         return n
@@ -199,7 +216,9 @@ class Interpreter:
             raise
 
     def finish(self, last_line: int) -> None:
-        """End of input: an open NURBS group is an error."""
+        """End of input: an open NURBS group is an error; the knock-on errors left out are noted."""
+        for root, message in self.knock_on.summary():
+            self.warnings.append(Diagnostic(self.file, root, 1, "N-KNOCK-ON", message, "notice"))
         group = self.state.nurbs
         if group is not None:
             self.state.nurbs = None
@@ -234,6 +253,8 @@ class Interpreter:
             return self._execute(spec, vals, assigns, messages, line, text)
         control = _subprogram(spec, vals) if "subprogram" in m else None
         execute_block(st, spec, vals, out, notices, line, self.setup, base.motion)
+        if self.knock_on.doubt:
+            self.knock_on.settled(spec)
         self._commit(st, out, notices, assigns, line, text)
         if control is not None and not self.done:
             self.control = (line, control)

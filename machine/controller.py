@@ -23,7 +23,7 @@ from ipo.feed.split import planning_problem
 from ipo.contracts import PeriodBatch
 from ipo.errors import IpoError
 from ipr import Setup, parse_file
-from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
+from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
 from machine.drive import Drive, DriveLimits, TravelLimitError
 from machine.extents import travel_violations
@@ -179,7 +179,7 @@ class Controller:
                 elif isinstance(item, Message):
                     messages.append(f"line {item.line}: {item.text}")
                     self.on_event(item)
-                elif isinstance(item, (Spindle, Coolant, ToolChange)):
+                elif isinstance(item, (Spindle, Coolant, ToolChange, Auxiliary)):
                     if isinstance(item, Spindle):
                         sign = {"cw": 1.0, "ccw": -1.0}.get(item.direction, 0.0)
                         drive.spindle_rad_s = sign * item.rpm * 2.0 * math.pi / 60.0

@@ -40,7 +40,7 @@ from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.split import corner_parts
 from ipo.feed.sampling import Samples, nurbs_table, sample
 from ipo.feed.scurve import MovingAverage
-from ipr.entities import (MOTION_TYPES, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
@@ -134,7 +134,7 @@ class FeedPlanner:
                 if len(self._motions) > _BUILD_CHUNK:
                     self._build(final=False)
                     yield from self._plan(final=False)
-            elif isinstance(e, (Spindle, Coolant, Message)):
+            elif isinstance(e, (Spindle, Coolant, Message, Auxiliary)):
                 if self._smp is None and not self._motions:
                     yield e  # standing still: nothing to wait for
                 else:

@@ -26,7 +26,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 from numba import njit
 
-from ipr.entities import (PLANE_AXES, Arc, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+from ipr.entities import (PLANE_AXES, Arc, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 from machine.grbl.protocol import MAX_LINE_CHARS
 
@@ -269,6 +269,9 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), merge_
             (notices if notices is not None else b.notices).append(
                 f"line {e.line}: grbl has no tool changer: the stream pauses (M0) for T{e.tool}; resume with ~")
             yield b.emit(e.line, "M0")
+        elif isinstance(e, Auxiliary):
+            (notices if notices is not None else b.notices).append(
+                f"line {e.line}: {e.code} ({e.text}) is not sent; grbl has no such function")
         elif isinstance(e, Message):
             (notices if notices is not None else b.notices).append(
                 f"line {e.line}: message {e.text!r} shown here only; grbl does not display messages")
