@@ -298,7 +298,7 @@ def _reachable(ball_mm: float, pick_mm: float, target_um: float) -> None:
     is refused here, not when the planner first meets it."""
     import numpy as np
 
-    from ipo.feed.roughness import feed_per_tooth_mm
+    from ipo.roughness import feed_per_tooth_mm
 
     try:
         feed_per_tooth_mm(ball_mm, pick_mm, target_um * 1e-3, np.linspace(0.0, 0.5 * math.pi, 91))

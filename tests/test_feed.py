@@ -395,3 +395,19 @@ def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_i
         list(plan_periods([Line(3, (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 10.0)], default_config()))
     assert (info.value.code, info.value.line) == (START, 3)
     assert str(info.value) == "line 3: motion starts at [1.0, 0.0, 0.0] but the machine stands at [0.0, 0.0, 0.0]"
+
+
+def test_a_builds_driver_changes_leave_the_windows_drivers_alone():
+    from ipo.feed.driver_changes import DriverChanges
+    base = {0: "curve 0", 1: "curve 1"}
+    ch = DriverChanges(base, next_index=5, make_driver=lambda e: f"driver of {e}")
+    ch[0] = "curve 0 trimmed"
+    del ch[1]
+    assert (ch.add("blend a"), ch.add("blend b")) == (5, 6)
+    assert ch[0] == "curve 0 trimmed" and ch[6] == "driver of blend b"
+    with pytest.raises(KeyError):
+        ch[1]
+    with pytest.raises(KeyError):
+        del ch[9]
+    assert base == {0: "curve 0", 1: "curve 1"}
+    assert ch.changed == {0: "curve 0 trimmed", 1: None, 5: "driver of blend a", 6: "driver of blend b"}

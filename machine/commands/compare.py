@@ -88,7 +88,7 @@ def _feed_figures(run: dict) -> dict:
 
 
 def _roughness(run: dict, config) -> dict:
-    from ipo.feed.roughness import inclination_rad, rmax_mm
+    from ipo.roughness import inclination_rad, rmax_mm
 
     fin = config.finishing
     if fin is None:
