@@ -14,7 +14,7 @@ all coincide (a repeated point of a polyline) have no length and are dropped.
 
 Left out: a cusp where the derivative vanishes (p coincident control points inside a curve
 of degree >= 2, or a repeated point next to a C0 knot) is not cut; the NURBS table rejects it
-with its "vanishing derivative" error, as before.
+with its "vanishing derivative" error (E-NURBS-PATH).
 """
 from __future__ import annotations
 
