@@ -29,6 +29,8 @@ class Setup:
     own folder. max_loop_iterations: loop iterations allowed over a whole run (E-LOOP-LIMIT).
     max_call_depth: nested calls allowed (E-CALL-DEPTH; rs274 refuses the 10th level).
     m99_repeat: M99 in the main program starts it again (Fanuc's endless repeat), else an error.
+    start_*: the machine's state when the program starts (an axis the program never names
+    stays at start_mm).
     """
 
     work_offsets_mm: dict[str, tuple[float, float, float]] = field(default_factory=dict)
@@ -43,6 +45,16 @@ class Setup:
     max_loop_iterations: int = 10_000_000
     max_call_depth: int = 9
     m99_repeat: bool = False
+    # Where and in which modes the program starts (a controller's state before the program,
+    # e.g. read from a grbl board): machine position, G54-G59 as 540..590, G92 offset,
+    # tool length offset (Z), G20, G91, plane. The defaults are a machine at its zero.
+    start_mm: tuple[float, float, float] = ZERO3
+    start_coord: int = 540
+    start_g92_mm: tuple[float, float, float] = ZERO3
+    start_tool_offset_mm: float = 0.0
+    start_inch: bool = False
+    start_incremental: bool = False
+    start_plane: str = "XY"
 
     @classmethod
     def from_machine(cls, config) -> Setup:
@@ -84,19 +96,20 @@ class ModalState:
                  "g92_stored", "feed_mode", "css", "comp", "saved_modes", "detour")
 
     def __init__(self, setup: Setup):
-        self.pos = ZERO3
-        self.unit = 1.0
-        self.absolute = True
+        self.pos = tuple(float(v) for v in setup.start_mm)
+        self.unit = INCH_MM if setup.start_inch else 1.0
+        self.absolute = not setup.start_incremental
         self.arc_absolute = False
-        self.plane = "XY"
+        self.plane = setup.start_plane
         self.motion: int | None = None
         self.feed_mm_s = 0.0
         self.path: PathControl = CONTINUOUS
-        self.coord = 540
-        self.coord_offset = setup.work_offset(540)
-        self.g92 = ZERO3
-        self.tool_offset = 0.0
-        self.offset = self.coord_offset
+        self.coord = setup.start_coord
+        self.coord_offset = setup.work_offset(setup.start_coord)
+        self.g92 = tuple(float(v) for v in setup.start_g92_mm)
+        self.tool_offset = float(setup.start_tool_offset_mm)
+        c, g = self.coord_offset, self.g92
+        self.offset = (c[0] + g[0], c[1] + g[1], c[2] + g[2] + self.tool_offset)
         self.tool_selected: int | None = None
         self.tool_in_spindle = 0
         self.spindle_rpm = 0.0
