@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from ipo.feed.planner import nurbs_end_gap_mm
 from ipo.feed.split import planning_problem
 from ipo.contracts import PeriodBatch
 from ipo.errors import IpoError
@@ -115,8 +116,9 @@ class Controller:
         start = np.array(start_position(program))
         reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
                    for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
+        end_gap = nurbs_end_gap_mm(self.config)
         reasons += [f"{program.file}:{e.line}: error[E-NURBS-PATH]: {why}" for e in motions
-                    if isinstance(e, Nurbs) and (why := planning_problem(e)) is not None]
+                    if isinstance(e, Nurbs) and (why := planning_problem(e, end_gap)) is not None]
         outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
         if outside.any():
             reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "

@@ -53,6 +53,13 @@ _START_TOL_MM = 1e-6
 _STANDSTILL_X = 1e-12  # v^2 below this (v < 1 um/s) counts as standing still
 
 
+
+def nurbs_end_gap_mm(config: MachineConfig) -> float:
+    """The gap of the end samples of the planner's NURBS tables (sampling.nurbs_table): two
+    periods at the top path speed. The controller's check tables the curves the same way."""
+    v_top = float(np.linalg.norm(np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE))
+    return 2 * v_top * config.period_s
+
 class FeedPlanner:
     """Streaming look-ahead planner; see the module docstring."""
 
@@ -93,7 +100,7 @@ class FeedPlanner:
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
-        self._v_top = float(np.linalg.norm(self.v_max))
+        self._end_gap_mm = nurbs_end_gap_mm(config)
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -156,7 +163,7 @@ class FeedPlanner:
             self._motions.append(Motion(m, self._rpm, idx))
 
     def _driver(self, e: Nurbs) -> NurbsDriver:
-        return NurbsDriver(e, nurbs_table(e, end_gap_mm=2 * self._v_top * self.T), self.method)
+        return NurbsDriver(e, nurbs_table(e, end_gap_mm=self._end_gap_mm), self.method)
 
     def _build_pending_event(self, e) -> None:
         """An event happens where the motions read so far end: at the end of the held-back
@@ -195,7 +202,7 @@ class FeedPlanner:
         if len(pc) == 0:
             return
         tables = {int(i): win.drivers[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
-        win.append(pc, sample(pc, win.s_end_mm, tables, end_gap_mm=2 * self._v_top * self.T), self._caps)
+        win.append(pc, sample(pc, win.s_end_mm, tables, end_gap_mm=self._end_gap_mm), self._caps)
 
     def _caps(self, rel: Samples, pc: Pieces):
         return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing,
