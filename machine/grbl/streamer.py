@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from typing import TYPE_CHECKING, Callable, Iterable
+from typing import Callable, Iterable
 
 import serial
 
@@ -31,13 +31,10 @@ from machine.grbl.ledger import Fault, Ledger
 from machine.grbl.program import StreamLine, resume_text
 from machine.grbl.resume import ResumeError, ResumePoint, find_resume
 
-if TYPE_CHECKING:
-    from machine.grbl.link import GrblLink, StreamResult
 
-
-def stream(link: GrblLink, lines: Iterable[StreamLine], ledger: Ledger, result: StreamResult, *,
+def stream(link, lines: Iterable[StreamLine], ledger: Ledger, result, *,
            resume: ResumePoint | None = None, on_progress: Callable | None = None,
-           progress_interval_s: float = 0.1) -> StreamResult:
+           progress_interval_s: float = 0.1):
     """Send `lines` until all are answered and run, or something stops the stream."""
     it = iter(lines)
     setup: deque[str] = deque()
@@ -119,7 +116,7 @@ def stream(link: GrblLink, lines: Iterable[StreamLine], ledger: Ledger, result: 
         return result
 
 
-def _lost(result: StreamResult, recent: deque[StreamLine]) -> None:
+def _lost(result, recent: deque[StreamLine]) -> None:
     ledger = result.ledger
     ledger.connection_lost = True
     last = ledger.last_acknowledged
@@ -131,7 +128,7 @@ def _lost(result: StreamResult, recent: deque[StreamLine]) -> None:
                              f"--resume (or --resume-from {last + 1}): vcnc checks where the machine stands first.")
 
 
-def _hold(link: GrblLink, ledger: Ledger) -> P.Status | None:
+def _hold(link, ledger: Ledger) -> P.Status | None:
     """Feed hold; read answers until grbl stands still (Hold:0, Idle or Alarm) and the
     answers for lines it had already taken have arrived. Returns its last status then."""
     link._write(P.FEED_HOLD)
@@ -176,7 +173,7 @@ def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None,
     return recent[idx:]
 
 
-def _stop(link: GrblLink, result: StreamResult, recent: deque[StreamLine]) -> None:
+def _stop(link, result, recent: deque[StreamLine]) -> None:
     """Hold, let the answers for lines grbl already has arrive, reset once still, find the resume line."""
     ledger = result.ledger
     held = _hold(link, ledger)
