@@ -222,3 +222,18 @@ def test_workpiece_surface_is_drawn_when_the_run_has_one(tmp_path):
         zs = page.evaluate("document.getElementById('path3d').data.find(t => t.type === 'surface').z.flat()")
         assert min(zs) == pytest.approx(z.min(), abs=1e-6) and len(zs) == z.size
         assert page.errors == []
+
+
+def test_run_with_a_workpiece_puts_its_surface_in_the_report(tmp_path):
+    import json as json_
+
+    out = tmp_path / "cut.html"
+    r = vcnc("run", DEMO, "--machine", FINISH_MACHINE, "--stock=-5,-5,-2,35,35,1", "--grid-um", 250,
+             "--report", out)
+    assert r.exit_code == 0, r.stderr
+    text = out.read_text()
+    info = json_.loads(re.search(r'id="vcnc-info">(.*?)</script>', text).group(1))
+    assert info["runs"][0]["surface"] is True
+    dtype, _, size, shape = info["arrays"]["r0_surf_z"]
+    # the stock is 40 x 40 mm at 250 um: 161 nodes a side, under the page's 300
+    assert shape == [161, 161] and size == 161 * 161
