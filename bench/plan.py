@@ -35,7 +35,7 @@ import ipr
 from ipo.config import Finishing, default_config
 from ipo.feed.planner import plan_periods
 from ipo.contracts import LIMIT_NAMES, PeriodBatch
-from ipo.feed.roughness import inclination_rad, rmax_mm
+from ipo.roughness import inclination_rad, rmax_mm
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc"

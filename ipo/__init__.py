@@ -6,6 +6,7 @@ never machine/:
 | room | what lives there | papers |
 |---|---|---|
 | `ipo.config` | the machine file (TOML -> MachineConfig); `ipo/machine.toml` is the documented default | — |
+| `ipo.roughness` | 002's surface-roughness model of ball-end finishing (read by the machine-file check and the feed limiter) | 002 eq. 1–6 |
 | `ipo.contracts` | what every stage shares: the stepper contract (`Steps`) and the period stream (`PeriodBatch`, `LIMIT_*`) | 000 §2.2 |
 | `ipo.nurbs` | the NURBS kernel: vectorised evaluation, the compiled per-period form, sub-curves | 000 eq. 1–4 |
 | `ipo.interp` | constant-chord interpolation: recursive, Taylor, constant du, line/arc steppers, reference word and pulse, the chord study | 000 eq. 7–16, 002 eq. 7 |

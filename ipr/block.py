@@ -9,38 +9,55 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+from ipr.dialect import EXTRA_G, EXTRA_M
 from ipr.errors import BlockError, code_name
 
+CYCLES = (730, 740, 810, 820, 830, 840, 850, 860, 880, 890)   # canned cycles (ipr.cycles)
 G_GROUPS: dict[int, str] = {
     0: "motion", 10: "motion", 20: "motion", 30: "motion", 52: "motion", 53: "motion",
-    62: "motion", 800: "motion",
+    62: "motion", 800: "motion", 50: "motion", 51: "motion", **{c: "motion" for c in CYCLES},
     170: "plane", 180: "plane", 190: "plane",
     900: "distance", 910: "distance",
     901: "arc_distance", 911: "arc_distance",
     200: "units", 210: "units",
-    940: "feed_mode",
-    610: "path", 640: "path",
+    930: "feed_mode", 940: "feed_mode", 950: "feed_mode",
+    610: "path", 611: "path", 640: "path",
     540: "coord", 550: "coord", 560: "coord", 570: "coord", 580: "coord", 590: "coord",
-    40: "nonmodal", 530: "nonmodal", 920: "nonmodal", 921: "nonmodal",
-    400: "comp",
-    430: "tool_length", 490: "tool_length",
+    591: "coord", 592: "coord", 593: "coord",
+    40: "nonmodal", 530: "nonmodal", 920: "nonmodal", 520: "nonmodal", 100: "nonmodal",
+    280: "nonmodal", 281: "nonmodal", 300: "nonmodal", 301: "nonmodal",
+    921: "g92_apply", 922: "g92_apply", 923: "g92_apply",
+    400: "comp", 410: "comp", 420: "comp", 411: "comp", 421: "comp",
+    430: "tool_length", 431: "tool_length", 432: "tool_length", 490: "tool_length",
+    980: "retract", 990: "retract",
+    960: "spindle_mode", 970: "spindle_mode",
+    80: "lathe",
 }
-M_GROUPS: dict[int, str] = {0: "stop", 10: "stop", 20: "stop", 300: "stop",
-                            30: "spindle", 40: "spindle", 50: "spindle",
-                            70: "coolant", 80: "coolant", 90: "coolant", 60: "toolchange",
+# LinuxCNC's M groups (interp_array.cc): M19 and M70..M73 share the spindle group 7
+M_GROUPS: dict[int, str] = {0: "stop", 10: "stop", 20: "stop", 300: "stop", 600: "stop",
+                            30: "spindle", 40: "spindle", 50: "spindle", 190: "spindle",
+                            700: "spindle", 710: "spindle", 720: "spindle", 730: "spindle",
+                            70: "coolant", 80: "coolant", 90: "coolant", 60: "toolchange", 610: "toolchange",
+                            **{c: "override" for c in range(480, 540, 10)},
+                            **{c: "io" for c in range(620, 690, 10)},
+                            **{c: "user" for c in range(1000, 2000, 10)},
                             980: "subprogram", 990: "subprogram"}
 _WHY_NOT = {
-    280: "return to a stored home position", 281: "storing a home position",
-    300: "return to a stored position", 301: "storing a position",
-    410: "cutter radius compensation", 420: "cutter radius compensation",
-    411: "cutter radius compensation", 421: "cutter radius compensation",
-    930: "inverse time feed", 950: "feed per revolution", 100: "setting offsets from the program",
+    330: "spindle-synchronised motion (threading)", 331: "rigid tapping (spindle-synchronised)",
+    760: "threading cycle (spindle-synchronised)", 870: "back boring cycle",
+    382: "probing (a virtual machine has no workpiece to touch)", 383: "probing", 384: "probing",
+    385: "probing", 70: "lathe diameter mode",
+ 171: "UV plane", 181: "UW plane", 191: "VW plane",
 }
-LETTERS = frozenset("GMXYZIJKRFPQSTHLNO")
+# the item-7 constructs: axes a 3-axis machine does not have
+ABSENT_AXES = frozenset("ABCUVW")
+# non-modal codes that take the axis words (no motion may share the block)
+AXIS_NONMODAL = frozenset((920, 520, 100, 280, 300))
 AXES = "XYZ"
 _LINEAR_LETTERS = frozenset("XYZFN")
 _ARC_LETTERS = frozenset("XYZIJKRFN")
 NURBS_MOTIONS = (52, 62)
+DWELL_CYCLES = (740, 820, 840, 860, 880, 890)   # cycles that read P (dwell seconds)
 
 
 class BlockSpec:
@@ -74,12 +91,14 @@ class BlockSpec:
 
     def moves(self, motion: int | None) -> bool:
         """Does the block execute its (modal) motion?"""
+        if self.g.get("nonmodal") in AXIS_NONMODAL or self.g.get("tool_length") == 431:
+            return False   # G10, G28, G30, G52, G92 and G43.1 take the axis words
         code = self.g.get("motion")
         if code is not None:
             if code in (0, 10):
                 return bool(self.axes)   # a bare G0/G1 only sets the mode
             return code != 800
-        if self.axes and self.g.get("nonmodal") != 920:
+        if self.axes:
             return True
         if motion in NURBS_MOTIONS:
             return any(k in self.index for k in ("K", "R", "P"))
@@ -93,10 +112,11 @@ class BlockSpec:
 
 
 def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
-    g = spec.g
+    g, mc = spec.g, spec.m
     moving = spec.moves(motion)
     nonmodal = g.get("nonmodal")
-    if spec.axes and nonmodal != 920 and (motion is None or motion == 800 or motion == 53):
+    takes_axes = nonmodal in AXIS_NONMODAL or g.get("tool_length") == 431
+    if spec.axes and not takes_axes and (motion is None or motion == 800 or motion == 53):
         letter = spec.axes[0]
         what = "G80 cancels motion" if motion == 800 else "no motion mode is active"
         raise_at = spec.index[letter]
@@ -105,10 +125,19 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
     m98 = spec.m.get("subprogram") == 980
     if m98 and "P" not in spec.index:
         return BlockError("E-WORD-MISSING", "M98 needs a P word (the subprogram number)", spec.where["subprogram"])
+    cycle = m in CYCLES
+    io = (mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
+          or mc.get("spindle") == 190 or "dialect_g" in g)   # M19 R (angle) Q (timeout) P (direction)
     users = {
-        "I": m in (20, 30), "J": m in (20, 30), "K": m in (20, 30, 62), "R": m in (20, 30, 62),
-        "P": nonmodal == 40 or g.get("path") == 640 or m in (20, 30, 52, 62) or m98,
-        "Q": g.get("path") == 640 or m == 62, "L": m == 52 or m98, "H": g.get("tool_length") == 430,
+        "I": m in (20, 30, 50, 51), "J": m in (20, 30, 50, 51), "K": m in (20, 30, 62),
+        "R": m in (20, 30, 62) or cycle or nonmodal == 100 or mc.get("spindle") == 190,
+        "E": mc.get("io") is not None or mc.get("user") is not None or "dialect_g" in g,
+        "P": (nonmodal in (40, 100) or g.get("path") == 640 or m in (20, 30, 50, 52, 62)
+              or m in DWELL_CYCLES or io or m98),
+        "Q": g.get("path") == 640 or m in (50, 62, 730, 830) or io or mc.get("toolchange") == 610,
+        "L": m == 52 or cycle or nonmodal == 100 or mc.get("io") == 660 or m98,
+        "H": g.get("tool_length") in (430, 432),
+        "D": g.get("comp") in (410, 420, 411, 421) or g.get("spindle_mode") == 960,
     }
     for letter, used in users.items():
         if letter in spec.index and not used:
@@ -116,28 +145,32 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
                               spec.index[letter])
     if nonmodal == 40 and "P" not in spec.index:
         return BlockError("E-WORD-MISSING", "G4 dwell needs a P word (seconds)", spec.where["nonmodal"])
-    if nonmodal == 920 and not spec.axes:
-        return BlockError("E-WORD-MISSING", "G92 needs at least one axis word", spec.where["nonmodal"])
+    if nonmodal in (920, 520) and not spec.axes:
+        return BlockError("E-WORD-MISSING", f"G{nonmodal // 10} needs at least one axis word",
+                          spec.where["nonmodal"])
     if nonmodal == 530 and motion not in (0, 10):
         return BlockError("E-G53", "G53 needs G0 or G1 motion", spec.where["nonmodal"])
     return None
 
 
 @lru_cache(maxsize=4096)
-def analyse(signature: tuple) -> BlockSpec | BlockError:
-    """Check a signature: ((letter, G/M value or None), ...) in text order."""
+def analyse(signature: tuple, dialect: str = "linuxcnc") -> BlockSpec | BlockError:
+    """Check a signature: ((letter, G/M value or None), ...) in text order; a dialect's own
+    codes (ipr.dialect) are groups "dialect_g" / "dialect_m"."""
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     where: dict[str, int] = {}
     index: dict[str, int] = {}
     for i, (letter, value) in enumerate(signature):
-        if letter not in LETTERS:
-            return BlockError("E-WORD-UNSUPPORTED", f"unsupported word {letter}", i)
+        if letter in ABSENT_AXES:   # every other letter of the grammar is read
+            return BlockError("E-AXIS-ABSENT", f"axis {letter}: this machine has only X, Y and Z "
+                              "(rotary and parallel axes are not simulated)", i)
         if letter in "GM":
             code = round(value * 10)
             table = G_GROUPS if letter == "G" else M_GROUPS
+            extra = (EXTRA_G if letter == "G" else EXTRA_M)[dialect]
             exact = abs(value * 10 - code) < 1e-6
-            group = table.get(code) if exact else None
+            group = (f"dialect_{letter.lower()}" if code in extra else table.get(code)) if exact else None
             if group is None:
                 why = _WHY_NOT.get(code) if letter == "G" and exact else None
                 kind = "E-GCODE-UNSUPPORTED" if letter == "G" else "E-MCODE-UNSUPPORTED"
@@ -145,6 +178,11 @@ def analyse(signature: tuple) -> BlockSpec | BlockError:
                 suffix = f" ({why})" if why else ""
                 return BlockError(kind, f"unsupported {what} {code_name(letter, value)}{suffix}", i)
             seen = g if letter == "G" else m
+            if group == "motion" and group in seen and 800 in (code, seen[group]):
+                # LinuxCNC (read_g): G80 gives way to another motion code of the block
+                if code == 800:
+                    continue
+                del seen[group]
             if group in seen:
                 first = code_name(letter, seen[group] / 10)
                 return BlockError("E-MODAL-GROUP", f"{first} and {code_name(letter, value)} are in the "
@@ -156,7 +194,8 @@ def analyse(signature: tuple) -> BlockSpec | BlockError:
                 return BlockError("E-WORD-REPEATED", f"{letter} word appears twice in the block", i)
             index[letter] = i
     axes = tuple(a for a in AXES if a in index)
-    if axes and g.get("nonmodal") == 920 and "motion" in g:
-        return BlockError("E-AXIS-CONFLICT", f"G92 and {code_name('G', g['motion'] / 10)} both use the "
-                          "axis words", where["motion"])
+    nonmodal = g.get("nonmodal")
+    if axes and nonmodal in AXIS_NONMODAL and g.get("motion", 800) != 800:
+        return BlockError("E-AXIS-CONFLICT", f"{code_name('G', nonmodal / 10)} and "
+                          f"{code_name('G', g['motion'] / 10)} both use the axis words", where["motion"])
     return BlockSpec(g, m, index, where, axes)

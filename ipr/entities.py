@@ -198,8 +198,21 @@ class ProgramEnd:
     file: str | None = None
 
 
-Event = Union[Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd]
-Entity = Union[Rapid, Line, Arc, Nurbs, Dwell, Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd]
+@dataclass(frozen=True, slots=True)
+class Auxiliary:
+    """A code the virtual machine records and passes on without acting on it: M19 spindle
+    orient, M48..M53 override switches, M61 tool number, M62..M68 digital and analog I/O,
+    G96/G97 spindle speed mode, the machine file's M100..M199, a dialect's bookkeeping
+    M-codes. `code` as written ("M64", "G96"), `text` says what it does."""
+
+    line: int
+    code: str
+    text: str
+
+
+Event = Union[Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd, Auxiliary]
+Entity = Union[Rapid, Line, Arc, Nurbs, Dwell, Spindle, Coolant, ToolChange, Message, Stop, ProgramEnd,
+               Auxiliary]
 
 MOTION_TYPES = (Rapid, Line, Arc, Nurbs)
 

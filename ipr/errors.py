@@ -7,7 +7,6 @@ same table with examples.
 | code                 | meaning                                                                  |
 |----------------------|--------------------------------------------------------------------------|
 | E-SYNTAX             | the line does not follow the grammar (ipr/gcode.lark)                    |
-| E-WORD-UNSUPPORTED   | a letter vcnc does not read (A, B, C, D, E, U, V, W, ...)                |
 | E-GCODE-UNSUPPORTED  | a G-code vcnc does not implement (G41, G93, G28, G81, ...)               |
 | E-MCODE-UNSUPPORTED  | an M-code vcnc does not implement                                        |
 | E-WORD-REPEATED      | a letter other than G or M appears twice in one block                    |
@@ -42,6 +41,18 @@ same table with examples.
 | E-NURBS-POINTS       | fewer control points than the order                                      |
 | E-NURBS-BLOCK        | a block inside a NURBS group that is not a control-point or knot block   |
 | E-NURBS-INCOMPLETE   | a NURBS group that ends (G0..G3, G5.3 missing, end of file) unfinished   |
+| E-AXIS-ABSENT        | an axis word (A, B, C, U, V, W) of an axis the machine does not have     |
+| E-CYCLE              | a canned cycle lacks R/Z/Q/P, has R below Z, L0, Q <= 0, or runs in G93 |
+|                      | or under cutter compensation                                             |
+| E-SPINDLE            | a cycle needs the spindle turning (G86, G88) or turning the right way    |
+|                      | (G84 clockwise, G74 counter-clockwise)                                   |
+| E-OFFSET             | G10 without L/P or with an L/P out of range; G28.1/G30.1 with axis words |
+| E-FEED-MODE          | G93 move without F; G95 with spindle speed zero                          |
+| E-MCODE-USER         | M100..M199 that the machine file does not name                           |
+| E-COMP               | cutter compensation: no tool radius, not G17, an entry move or arc not    |
+|                      | longer than the radius, a tool larger than an arc, a gouge in a concave  |
+|                      | corner, an arc right after G40, G10/G28/G30/G53/G92 while it is on      |
+| E-DIALECT            | a line of another kind than G-code: grbl's `$` sender commands            |
 
 Warnings and notices (severity "warning"/"notice", never stop a program):
 
@@ -49,11 +60,15 @@ Warnings and notices (severity "warning"/"notice", never stop a program):
 |----------------------|--------------------------------------------------------------------------|
 | W-TOOL-UNKNOWN       | G43 H or M6 T names a tool missing from the tool table: zero offset      |
 | N-Q-IGNORED          | the Q word of LinuxCNC's G6.2 (its output method) is ignored             |
+| N-RECORDED           | a code the virtual machine records but does not act on (M19 orient,      |
+|                      | M48..M53 override switches, M62..M68 I/O, G96 surface speed, dialect     |
+|                      | bookkeeping M-codes such as Haas M31)                                    |
+| N-KNOCK-ON           | errors suppressed because they follow from an earlier refused block      |
 """
 from __future__ import annotations
 
 CODES = (
-    "E-SYNTAX", "E-WORD-UNSUPPORTED", "E-GCODE-UNSUPPORTED", "E-MCODE-UNSUPPORTED",
+    "E-SYNTAX", "E-GCODE-UNSUPPORTED", "E-MCODE-UNSUPPORTED",
     "E-WORD-REPEATED", "E-MODAL-GROUP", "E-AXIS-CONFLICT", "E-WORD-UNUSED", "E-WORD-MISSING",
     "E-VALUE", "E-NO-MOTION-MODE", "E-FEED-ZERO", "E-G53", "E-PARAM", "E-EXPR",
     "E-EXPR-TOO-DEEP", "E-OWORD", "E-SUB-NOT-FOUND", "E-LOOP-LIMIT", "E-CALL-DEPTH",
@@ -61,7 +76,8 @@ CODES = (
     "E-NURBS-ORDER", "E-NURBS-WEIGHT", "E-NURBS-START", "E-NURBS-KNOT-COUNT",
     "E-NURBS-KNOT-ORDER", "E-NURBS-KNOT-CLAMP", "E-NURBS-KNOT-MULT", "E-NURBS-POINTS",
     "E-NURBS-BLOCK", "E-NURBS-INCOMPLETE",
-    "W-TOOL-UNKNOWN", "N-Q-IGNORED",
+    "E-AXIS-ABSENT", "E-CYCLE", "E-SPINDLE", "E-OFFSET", "E-FEED-MODE", "E-MCODE-USER", "E-DIALECT", "E-COMP",
+    "W-TOOL-UNKNOWN", "N-Q-IGNORED", "N-RECORDED", "N-KNOCK-ON",
 )
 
 

@@ -8,53 +8,87 @@ caller commits them only if nothing raised.
 """
 from __future__ import annotations
 
-from ipr import nurbs_blocks
+from dataclasses import replace
+
+from ipr import cutter_comp, cycles, modes, nurbs_blocks, offsets, splines
 from ipr.arcs import make_arc
-from ipr.block import AXES, BlockSpec
+from ipr.block import AXES, CYCLES, BlockSpec
 from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
+from ipr.dialect import allows_zero_normal_offset, dwell_seconds
 from ipr.errors import BlockError
-from ipr.modal import INCH_MM, Setup, Staged, target
+from ipr.mcodes import execute_mcodes
+from ipr.modal import INCH_MM, Setup, Staged, rotate_xy, target, to_machine
 
 _PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
+_SPINDLE = {30: "cw", 40: "ccw", 50: None}
+_BASIC_M = {"stop", "coolant"}   # M groups handled here; the rest (and M6's group) in ipr.mcodes
 
 
 def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: list, line: int,
                   setup: Setup, motion_before: int | None) -> None:
     """Everything a (non-NURBS-group) block does; `motion_before` is the modal motion."""
     idx, g, m = spec.index, spec.g, spec.m
+    if "feed_mode" in g:
+        modes.set_feed_mode(st, spec, g["feed_mode"])
     if "F" in idx:
         if vals[idx["F"]] < 0.0:
             raise BlockError("E-VALUE", f"negative feed rate F{vals[idx['F']]:g}", idx["F"])
         st.feed_mm_s = vals[idx["F"]] * st.unit / 60.0  # before a G20/G21 of this block
     if "O" in idx:
         st.program_number = _whole(vals[idx["O"]], "O", idx["O"])
+    if "spindle_mode" in g:
+        modes.set_spindle_mode(st, spec, vals, out, line, g["spindle_mode"])
     _spindle_tool(st, spec, vals, out, notices, line, setup)
+    if m.keys() - _BASIC_M or "dialect_g" in g:
+        execute_mcodes(st, spec, vals, out, line, setup)
     if g.get("nonmodal") == 40:
         p = vals[idx["P"]]
         if p < 0.0:
             raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
-        out.append(Dwell(line, p))
+        out.append(Dwell(line, dwell_seconds(setup.dialect, p)))
+    if "plane" in g and st.comp is not None and st.comp.side and st.plane != _PLANES[g["plane"]]:
+        raise BlockError("E-COMP", "the plane cannot change while cutter radius compensation is on",
+                         spec.where["plane"])
     _modes(st, spec, vals, notices, setup)
+    comp = g.get("comp")
+    if comp == 400:
+        cutter_comp.turn_off(st, out)
+    elif comp is not None:
+        cutter_comp.turn_on(st, spec, vals, lambda t: (offsets.tool_entry(st, setup, t) or (None, None))[1], comp)
     nonmodal = g.get("nonmodal")
-    if nonmodal == 920:
-        pos, unit, gg = st.pos, st.unit, list(st.g92)
-        for k, i in spec.axis_idx:
-            gg[k] = pos[k] - st.coord_offset[k] - (st.tool_offset if k == 2 else 0.0) - vals[i] * unit
-        st.g92 = tuple(gg)
-        st.set_offsets()
-    elif nonmodal == 921:
-        st.g92 = (0.0, 0.0, 0.0)
-        st.set_offsets()
+    if st.comp is not None and st.comp.side and (nonmodal in (100, 280, 300, 530, 920, 520) or "g92_apply" in g):
+        raise BlockError("E-COMP", "G10, G28, G30, G52, G53 and G92 cannot be used with cutter radius "
+                         "compensation on (G40 first)", spec.where["nonmodal" if nonmodal else "g92_apply"])
+    if nonmodal == 100:
+        offsets.g10(st, spec, vals, setup)
+    elif nonmodal in (280, 300):
+        offsets.stored_return(st, spec, vals, out, line)
+    elif nonmodal in (281, 301):
+        offsets.store_position(st, spec)
+    elif nonmodal in (920, 520):
+        offsets.g92(st, spec, vals)
+    if "g92_apply" in g:
+        offsets.g92_apply(st, g["g92_apply"])
     if "motion" in g:
         st.motion = g["motion"]
-    if spec.moves(motion_before) and nonmodal != 920:
-        _motion(st, spec, vals, out, notices, line)
+    holding = st.comp is not None and st.comp.queue
+    if holding and out:   # events run after the moves compensation holds back
+        cutter_comp.hold(st, out[:])
+        out.clear()
+    if spec.moves(motion_before):
+        _motion(st, spec, vals, out, notices, line, motion_before, setup.dialect)
     stop = m.get("stop")
     if stop is not None:
-        out.append(ProgramEnd(line) if stop in (20, 300) else Stop(line, optional=stop == 10))
         if stop in (20, 300):
+            if st.comp is not None:
+                cutter_comp.flush_all(st, out)
+            out.append(ProgramEnd(line))
             st.ended = True
+        elif st.comp is not None and st.comp.queue:
+            cutter_comp.hold(st, [Stop(line, optional=stop == 10)])
+        else:
+            out.append(Stop(line, optional=stop == 10))
 
 
 def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, setup: Setup) -> None:
@@ -75,8 +109,10 @@ def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, se
         st.tool_in_spindle = tool
         out.append(ToolChange(line, tool))
     spindle = m.get("spindle")
+    if spindle not in _SPINDLE:
+        spindle = None
     if spindle is not None:
-        st.spindle_dir = {30: "cw", 40: "ccw", 50: None}[spindle]
+        st.spindle_dir = _SPINDLE[spindle]
     if spindle is not None or ("S" in idx and st.spindle_dir is not None):
         out.append(Spindle(line, st.spindle_rpm, st.spindle_dir))
     coolant = m.get("coolant")
@@ -92,27 +128,12 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
         st.plane = _PLANES[g["plane"]]
     if "units" in g:
         st.unit = INCH_MM if g["units"] == 200 else 1.0
-    tl = g.get("tool_length")
-    if tl == 430:
-        h = _whole(vals[idx["H"]], "H", idx["H"]) if "H" in idx else st.tool_in_spindle
-        length = 0.0
-        if h:
-            if h in setup.tool_lengths_mm:
-                length = float(setup.tool_lengths_mm[h])
-            else:
-                notices.append(("W-TOOL-UNKNOWN", f"tool H{h} is not in the tool table: zero "
-                                "length offset", idx.get("H")))
-        st.tool_offset = length
-        st.set_offsets()
-    elif tl == 490:
-        st.tool_offset = 0.0
-        st.set_offsets()
+    if "tool_length" in g:
+        offsets.tool_length(st, spec, vals, notices, setup, g["tool_length"])
     if "coord" in g:
-        st.coord = g["coord"]
-        st.coord_offset = setup.work_offset(g["coord"])
-        st.set_offsets()
+        offsets.select_coord(st, setup, g["coord"])
     path = g.get("path")
-    if path == 610:
+    if path in (610, 611):
         st.path = EXACT_STOP
     elif path == 640:
         tol = [None, None]
@@ -129,42 +150,97 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
     ad = g.get("arc_distance")
     if ad is not None:
         st.arc_absolute = ad == 901
+    if "retract" in g:
+        st.retract_r = g["retract"] == 990
 
 
-def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int) -> None:
+def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_before: int | None,
+            dialect: str) -> None:
     motion = st.motion
     g53 = spec.g.get("nonmodal") == 530
     if g53 and not st.absolute:
         raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
+    if motion in CYCLES:
+        return cycles.run_cycle(st, spec, vals, out, notices, line, motion_before, dialect)
+    comp, end = st.comp, None
+    if comp is not None:
+        where = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
+        if motion not in (0, 10, 20, 30) or g53 or st.feed_mode == 930:
+            raise BlockError("E-COMP", "under cutter radius compensation only G0, G1, G2 and G3 moves in G94/G95 "
+                             "are supported", where)
+        end = target(st, spec, vals, comp.programmed)
+        if not comp.side:   # the exit move after G40: from the compensated point to the programmed end
+            if motion in (20, 30):
+                raise BlockError("E-COMP", "the first move after G40 cannot be an arc", where)
+            st.comp = None
+        else:
+            return _comp_motion(st, spec, vals, out, notices, line, motion, end, where, dialect)
     if motion in (52, 62):
+        if st.rotation_deg:
+            raise BlockError("E-OFFSET", "NURBS blocks in a rotated coordinate system (G10 L2 R) are not "
+                             "supported", spec.where.get("motion"))
         return nurbs_blocks.start_group(st, spec, vals, line, notices)
     if motion == 53:
         raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
-    end = target(st, spec, vals, st.pos, machine=g53)
+    if end is None:
+        end = target(st, spec, vals, st.pos, machine=g53)
     if motion == 0:
         out.append(Rapid(line, st.pos, end, st.path))
     else:
-        feed_mm_s = st.feed_mm_s
-        if feed_mm_s <= 0.0:
-            word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
+        word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
+        if st.feed_mm_s <= 0.0:
             raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", word)
+        if motion in (50, 51):
+            if st.feed_mode == 930:
+                raise BlockError("E-FEED-MODE", "G5/G5.1 splines in inverse time feed (G93) are not supported",
+                                 word)
+            out.append(splines.spline(st, spec, vals, motion_before,
+                                      modes.move_feed_mm_s(st, spec, vals, word, st.pos, end), line))
+            return
         if motion == 10:
+            feed_mm_s = modes.move_feed_mm_s(st, spec, vals, word, st.pos, end)
             out.append(Line(line, st.pos, end, feed_mm_s, st.path))
         else:
-            out.append(_arc(st, spec, vals, end, feed_mm_s, line))
+            arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices)
+            if st.feed_mode != 940:
+                arc = replace(arc, feed_mm_s=modes.move_feed_mm_s(st, spec, vals, word, st.pos, end, arc))
+            out.append(arc)
     st.pos = end
 
 
-def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int):
+def _comp_motion(st, spec, vals, out, notices, line: int, motion: int, end, where, dialect: str) -> None:
+    """A G0..G3 under compensation (ipr.cutter_comp), `end` the programmed end point."""
+    if motion == 0:
+        return cutter_comp.straight(st, "rapid", line, end, None, out)
+    if st.feed_mm_s <= 0.0:
+        raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", where)
+    comp, tool_pos = st.comp, st.pos
+    start = tool_pos if comp.first else comp.programmed   # rs274's arc_data_comp_ijk / arc_data_ijk
+    st.pos = start
+    arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices) if motion != 10 else None
+    st.pos = tool_pos
+    feed_mm_s = modes.move_feed_mm_s(st, spec, vals, where, start, end, arc)
+    if arc is None:
+        return cutter_comp.straight(st, "line", line, end, feed_mm_s, out)
+    if arc.turns:
+        raise BlockError("E-COMP", "full turns (P) of an arc under cutter radius compensation are not supported",
+                         spec.index["P"])
+    return cutter_comp.arc(st, line, end, arc.center[:2], 1 if arc.ccw else -1, feed_mm_s, out)
+
+
+def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, dialect: str, notices):
     idx, plane = spec.index, st.plane
     a, b, n = PLANE_AXES[plane]
     where = spec.where.get("motion")
-    offs = [letter for letter in "IJK" if letter in idx]
     normal_offset = "IJK"[n]
+    if normal_offset in idx:
+        if vals[idx[normal_offset]] != 0.0 or not allows_zero_normal_offset(dialect):
+            raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
+        notices.append(("N-RECORDED", f"{normal_offset}0 on a {plane} arc read as absent ({dialect} dialect)",
+                        idx[normal_offset]))
+    offs = [letter for letter in "IJK" if letter in idx and letter != normal_offset]
     if "R" in idx and offs:
         raise BlockError("E-ARC-FORMAT", "arc with both R and I/J/K", idx["R"])
-    if normal_offset in idx:
-        raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
     turns = 0
     if "P" in idx:
         p = vals[idx["P"]]
@@ -186,11 +262,16 @@ def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int):
             if letter not in idx:
                 raise BlockError("E-ARC-FORMAT", f"{letter} word missing in an absolute-centre (G90.1) arc",
                                  where)
-        off = st.offset
-        center = (vals[idx[ia]] * unit + off[a], vals[idx[ib]] * unit + off[b])
+        p = [0.0, 0.0, 0.0]
+        p[a], p[b] = vals[idx[ia]] * unit, vals[idx[ib]] * unit
+        c = to_machine(st, p)
+        center = (c[a], c[b])
     else:
-        center = (st.pos[a] + (vals[idx[ia]] * unit if ia in idx else 0.0),
-                  st.pos[b] + (vals[idx[ib]] * unit if ib in idx else 0.0))
+        d = [0.0, 0.0, 0.0]
+        d[a] = vals[idx[ia]] * unit if ia in idx else 0.0
+        d[b] = vals[idx[ib]] * unit if ib in idx else 0.0
+        d[0], d[1] = rotate_xy(st, d[0], d[1])
+        center = (st.pos[a] + d[a], st.pos[b] + d[b])
     return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path, center_ab=center, turns=turns,
                     word=idx[offs[0]], unit_mm=unit)
 

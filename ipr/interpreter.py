@@ -13,12 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from ipr import nurbs_blocks
+from ipr import cutter_comp, nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Message
+from ipr.dialect import sender_command
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
+from ipr.knockon import KnockOn
 from ipr.plain import compile_arc_step, compile_step
 from ipr.modal import ModalState, Setup, Staged
 from ipr.oword import parse_oword
@@ -53,10 +55,15 @@ class Interpreter:
         self._percents = 0
         self._started = False   # a block with words has been read (then % no longer opens)
         self.done = False
+        self.knock_on = KnockOn()
         self.control = None      # (line, OWord or ("m98", label, count) / ("m99",)) stopped on
 
     # ---- errors -------------------------------------------------------------------
     def _fail(self, err: BlockError, line: int, text: str) -> None:
+        if self.all_errors:
+            if self.knock_on.follows(err.code):
+                return
+            self.knock_on.refused(self._words(text), line)
         col = err.col
         if col is None:
             col = 1
@@ -69,6 +76,15 @@ class Interpreter:
         self.diagnostics.append(diag)
         if not self.all_errors:
             raise GCodeError([diag])
+
+    @staticmethod
+    def _words(text: str):
+        """The (letter, number) words of a refused line (expressions as None), None if it does not parse."""
+        try:
+            block, _ = parse_line_columns(text)
+        except LineSyntaxError:
+            return None
+        return [(letter, v if v.__class__ is float else None) for letter, v in block.words]
 
     def _notice(self, code: str, message: str, line: int, text: str, word: int | None,
                 severity: str = "notice") -> None:
@@ -87,7 +103,7 @@ class Interpreter:
         if tpl is None:
             plan = None
         else:
-            spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
+            spec = analyse(tuple(zip(tpl.letters, tpl.fixed)), self.setup.dialect)
             step = None
             if spec.__class__ is BlockSpec and not tpl.delete and (spec.linear or spec.plain_arc):
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
@@ -111,7 +127,7 @@ class Interpreter:
     def run(self, lines: Iterable[str], first: int = 1) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
         returns the number of the last line read."""
-        state, plans, append = self.state, self._plans, self.out.append
+        state, plans, append, doubt = self.state, self._plans, self.out.append, self.knock_on.doubt
         n = first - 1
         for n, text in enumerate(lines, first):
             if self.done:
@@ -128,6 +144,8 @@ class Interpreter:
                     self._template(plan, parts, n, text)
                 else:
                     self._started = True
+                    if doubt:
+                        self.knock_on.settled(plan[1])
             except BlockError as err:
                 self._fail(err, n, text)
         return n
@@ -149,6 +167,9 @@ class Interpreter:
 
     def _full(self, line: int, text: str) -> None:
         """A line that is not simple: expressions, parameters, comments, syntax errors."""
+        if sender_command(text):
+            raise BlockError("E-DIALECT", "a grbl system command ($H, $X, $$, $J=...) is for the sender, not "
+                             "G-code: vcnc runs the G-code and has no grbl settings", col=text.index("$") + 1)
         block = expression_block(text)
         if block is None:
             try:
@@ -176,6 +197,13 @@ class Interpreter:
             return
         params = self.state.params
         params.line = line
+        if not block.words and not block.messages and self.state.nurbs is None:
+            # parameter assignments alone (loop counters): no codes to check, no state but the table
+            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+            for key, _ in assigns:
+                params.check_writable(key)
+            params.update(assigns)
+            return
         vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
         for i, ((letter, _), v) in enumerate(zip(block.words, vals)):
             if letter in "GM" and not -MAX_VALUE < v < MAX_VALUE:   # before the codes are looked up
@@ -186,7 +214,8 @@ class Interpreter:
         messages = block.messages
         if any(m.__class__ is not str for m in messages):
             messages = tuple(m if m.__class__ is str else substitute(m[1], params) for m in messages)
-        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
+        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)),
+                       self.setup.dialect)
         if spec.__class__ is BlockError:
             raise spec
         self._execute(spec, vals, assigns, messages, line, text)
@@ -199,7 +228,11 @@ class Interpreter:
             raise
 
     def finish(self, last_line: int) -> None:
-        """End of input: an open NURBS group is an error."""
+        """End of input: an open NURBS group is an error; the knock-on errors left out are noted."""
+        if self.state.comp is not None:
+            cutter_comp.flush_all(self.state, self.out)
+        for root, message in self.knock_on.summary():
+            self.warnings.append(Diagnostic(self.file, root, 1, "N-KNOCK-ON", message, "notice"))
         group = self.state.nurbs
         if group is not None:
             self.state.nurbs = None
@@ -234,6 +267,8 @@ class Interpreter:
             return self._execute(spec, vals, assigns, messages, line, text)
         control = _subprogram(spec, vals) if "subprogram" in m else None
         execute_block(st, spec, vals, out, notices, line, self.setup, base.motion)
+        if self.knock_on.doubt:
+            self.knock_on.settled(spec)
         self._commit(st, out, notices, assigns, line, text)
         if control is not None and not self.done:
             self.control = (line, control)

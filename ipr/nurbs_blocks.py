@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from ipr.entities import PLANE_AXES
 from ipr.errors import BlockError, code_name
+from ipr.gcodes import NURBS_FANUC, NURBS_LINUXCNC, NURBS_LINUXCNC_END
 from ipr.modal import target
 from ipr.nurbs_groups import (FANUC_DEFAULT_ORDER, G5_DEFAULT_ORDER, NurbsGroup, check_knot,
                               check_order, check_start, check_weight, finish)
@@ -47,9 +48,9 @@ def start_group(st, spec, vals, line: int, notices: list) -> None:
     if feed_mm_s <= 0.0:
         raise BlockError("E-FEED-ZERO", "NURBS move with feed rate zero (program an F word)", where)
     idx = spec.index
-    if kind == 62:
+    if kind == NURBS_FANUC:
         order = check_order(vals[idx["P"]], idx["P"]) if "P" in idx else FANUC_DEFAULT_ORDER
-        group = NurbsGroup(62, line, order, feed_mm_s, st.path)
+        group = NurbsGroup(NURBS_FANUC, line, order, feed_mm_s, st.path)
         if "Q" in idx:
             notices.append(("N-Q-IGNORED", "Q word of G6.2 ignored: vcnc interpolates the NURBS "
                             "itself", idx["Q"]))
@@ -65,7 +66,7 @@ def start_group(st, spec, vals, line: int, notices: list) -> None:
             group.knots.append(vals[idx["K"]])
     else:
         order = check_order(vals[idx["L"]], idx["L"]) if "L" in idx else G5_DEFAULT_ORDER
-        group = NurbsGroup(52, line, order, feed_mm_s, st.path)
+        group = NurbsGroup(NURBS_LINUXCNC, line, order, feed_mm_s, st.path)
         has_point = _check_g52_axes(st, spec)
         p = vals[idx["P"]] if "P" in idx else None
         group.points.append(st.pos)
@@ -83,19 +84,19 @@ def continue_group(st, spec, vals) -> object | None:
     """A block inside an open group; returns the Nurbs when the block closes the group."""
     group: NurbsGroup = st.nurbs
     idx = spec.index
-    allowed = _G62_WORDS if group.kind == 62 else _G52_WORDS
+    allowed = _G62_WORDS if group.kind == NURBS_FANUC else _G52_WORDS
     for letter, i in idx.items():
         if letter not in allowed:
             raise BlockError("E-NURBS-BLOCK", f"{letter} word inside the {group.name} group begun at "
                              f"line {group.line}: only control points and knots may follow", i)
     for name, code in list(spec.g.items()) + list(spec.m.items()):
-        if code not in (group.kind, 53) or name not in spec.g:
+        if code not in (group.kind, NURBS_LINUXCNC_END) or name not in spec.g:
             letter = "G" if name in spec.g else "M"
             raise BlockError("E-NURBS-BLOCK", f"{code_name(letter, code / 10)} inside the {group.name} "
                              f"group begun at line {group.line}: only control points and knots may follow",
                              spec.where[name])
-    if group.kind == 52:
-        if spec.g.get("motion") == 53:
+    if group.kind == NURBS_LINUXCNC:
+        if spec.g.get("motion") == NURBS_LINUXCNC_END:
             if idx.keys() - {"N"}:
                 raise BlockError("E-NURBS-BLOCK", "G5.3 takes no words", min(idx.values()))
             return _close(st, group, spec.where["motion"])
@@ -110,7 +111,7 @@ def continue_group(st, spec, vals) -> object | None:
         weight = check_weight(vals[idx["P"]], idx["P"])
         st.after_commit.append(lambda: (group.points.append(point), group.weights.append(weight)))
         return None
-    if spec.g.get("motion") == 53:
+    if spec.g.get("motion") == NURBS_LINUXCNC_END:
         raise BlockError("E-NURBS-BLOCK", f"G5.3 inside the G6.2 group begun at line {group.line}",
                          spec.where["motion"])
     knot = vals[idx["K"]] if "K" in idx else None
@@ -140,7 +141,7 @@ def continue_group(st, spec, vals) -> object | None:
             group.closing += 1
         st.after_commit.append(add_knot)
         return None
-    closed = NurbsGroup(62, group.line, group.order, group.feed_mm_s, group.path)
+    closed = NurbsGroup(NURBS_FANUC, group.line, group.order, group.feed_mm_s, group.path)
     closed.points, closed.weights = group.points, group.weights
     closed.knots, closed.closing = group.knots + [knot], group.order
     return _close(st, closed, idx["K"])

@@ -11,6 +11,7 @@ import numpy as np
 
 from ipr.entities import Nurbs, PathControl
 from ipr.errors import BlockError
+from ipr.gcodes import NURBS_FANUC, NURBS_LINUXCNC
 
 START_TOL_MM = 0.001   # gcode.md: a NURBS never starts with a jump
 MIN_ORDER, MAX_ORDER = 2, 6
@@ -19,7 +20,7 @@ G5_DEFAULT_ORDER = 3
 
 
 class NurbsGroup:
-    """The blocks of one NURBS group read so far. `kind` is 62 (G6.2) or 52 (G5.2)."""
+    """The blocks of one NURBS group read so far. `kind` is NURBS_FANUC (G6.2) or NURBS_LINUXCNC (G5.2)."""
 
     __slots__ = ("kind", "line", "order", "points", "weights", "knots", "closing", "feed_mm_s", "path")
 
@@ -36,10 +37,10 @@ class NurbsGroup:
 
     @property
     def name(self) -> str:
-        return "G6.2" if self.kind == 62 else "G5.2"
+        return "G6.2" if self.kind == NURBS_FANUC else "G5.2"
 
     def complete(self) -> bool:
-        return self.kind == 62 and self.points and self.closing == self.order
+        return self.kind == NURBS_FANUC and self.points and self.closing == self.order
 
 
 def check_order(order: float, word: int | None) -> int:
@@ -110,7 +111,7 @@ def _frozen(a) -> np.ndarray:
 def finish(group: NurbsGroup, word: int | None) -> Nurbs:
     """The Nurbs of a finished group (raises BlockError on an invalid knot vector)."""
     n = len(group.points)
-    if group.kind == 52:
+    if group.kind == NURBS_LINUXCNC:
         if n < group.order:
             raise BlockError("E-NURBS-POINTS", f"G5.2 of order {group.order} needs at least "
                              f"{group.order} control points (the current position counts), the group "

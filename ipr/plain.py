@@ -8,7 +8,8 @@ Rapid or Arc (ipr.arcs.make_arc, the same geometry and checks), the new position
 and motion mode — with the numbers read straight from the line's parts
 (ipr.shapes.split_parts). Where the block needs more (another motion mode, a negative or
 zero feed, G90.1, an arc format the plane does not allow, a NURBS group open) the
-function returns False having changed nothing, and the interpreter runs the block on the
+function returns False having changed nothing (also while `detour` is set: cutter
+compensation, G93/G95, a rotated coordinate system), and the interpreter runs the block on the
 general path, which also reports the errors. tests/test_ipr_paths.py compares the two.
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ipr.entities import PLANE_AXES, Line, Rapid
 
 _TEMPLATE = """\
 def step(p, n, s, append):
-    if s.nurbs is not None:
+    if s.nurbs is not None or s.detour:
         return False
     m = {motion}
     if m != 10 and m != 0:
@@ -89,7 +90,7 @@ def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[in
     given_axes = set(axis_parts)
 
     def step(p, n, s, append):
-        if s.nurbs is not None or s.arc_absolute:
+        if s.nurbs is not None or s.arc_absolute or s.detour:
             return False
         m = s.motion if motion is None else motion
         if m != 20 and m != 30:

@@ -19,11 +19,12 @@ from typing import Callable
 
 import numpy as np
 
+from ipo.feed.planner import nurbs_end_gap_mm
 from ipo.feed.split import planning_problem
 from ipo.contracts import PeriodBatch
 from ipo.errors import IpoError
 from ipr import Setup, parse_file
-from ipr.entities import (MOTION_TYPES, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
+from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
                           ToolChange)
 from machine.drive import Drive, DriveLimits, TravelLimitError
 from machine.extents import travel_violations
@@ -115,8 +116,9 @@ class Controller:
         start = np.array(start_position(program))
         reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
                    for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
+        end_gap = nurbs_end_gap_mm(self.config)
         reasons += [f"{program.file}:{e.line}: error[E-NURBS-PATH]: {why}" for e in motions
-                    if isinstance(e, Nurbs) and (why := planning_problem(e)) is not None]
+                    if isinstance(e, Nurbs) and (why := planning_problem(e, end_gap)) is not None]
         outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
         if outside.any():
             reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "
@@ -179,7 +181,10 @@ class Controller:
                 elif isinstance(item, Message):
                     messages.append(f"line {item.line}: {item.text}")
                     self.on_event(item)
-                elif isinstance(item, (Spindle, Coolant, ToolChange)):
+                elif isinstance(item, (Spindle, Coolant, ToolChange, Auxiliary)):
+                    if isinstance(item, Spindle):
+                        sign = {"cw": 1.0, "ccw": -1.0}.get(item.direction, 0.0)
+                        drive.spindle_rad_s = sign * item.rpm * 2.0 * math.pi / 60.0
                     self.on_event(item)
             else:
                 if player is not None:

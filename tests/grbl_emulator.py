@@ -1,14 +1,24 @@
 """A TEST DOUBLE for grbl 1.1's serial protocol -- not grbl.
 
-It answers like grbl 1.1 as far as vcnc's link uses it: a 128-byte RX buffer (taking
-127 bytes, as forks whose ring is the buffer size do; grbl 1.1 on AVR takes 128), a
-15-block planner drained at a configurable rate (whole blocks: the position jumps to
-each block's end, or with `partial_blocks` a hold stops inside one), ok / error:N / ALARM:N,
-1.1-format status reports (MPos + WCO, Bf, FS, Ov), realtime bytes (? ! ~ 0x18,
-feed overrides 0x90-0x94), `$$`, `$I`, `$X`, and a small G-code subset (G0-G4,
-G17-G19, G21, G90, G91.1, G94, M0-M9, M30). Faults are injected on purpose: an error
-or alarm on a chosen line, a dropped connection, garbage bytes, slow answers, silence.
-Served over a pty pair or a 127.0.0.1 socket from a thread.
+It answers like grbl 1.1 as far as vcnc's link uses it, and is as strict as grbl
+where being kind would hide a fault:
+- a 128-byte RX buffer (taking 127 bytes, as forks whose ring is the buffer size do);
+- a 15-block planner whose blocks run only after a cycle start: grbl starts the cycle
+  when its RX buffer has no complete line left, when the planner is full, or before
+  an M-code or dwell; until then it reports Idle with blocks queued. Blocks drain
+  at `drain_s_per_block` (whole blocks, or with `partial_blocks` a hold stops inside one);
+- a feed hold decelerates for `hold_decel_s` (Hold:1), then holds (Hold:0) and takes
+  no more lines until `~`; a hold with no cycle running holds at once, nothing moved;
+- a soft reset loses the planner and the RX buffer, resets the parser's modes, G92 and
+  the tool length offset (G54-G59 stay), and raises ALARM:3 only if it came while moving;
+- machine coordinates with G54-G59, G92, G53 and G10 L2/L20 (tests/grbl_double_parser.py),
+  `$G`, `$#`, `$$`, `$I` (options: V, N with `line_numbers`, M with `mist`), `$X`, `$H`,
+  `$C` check mode, `$J=` jogging with cancel 0x85, `$N=value` settings;
+- status reports in the 1.1 format: MPos, Bf (when $10 has bit 2), Ln (built with
+  line numbers, while a numbered block runs), FS, Ov (feed, rapid, spindle), WCO.
+Faults are injected on purpose: an error or alarm on a chosen line, a dropped
+connection, garbage bytes, slow answers, silence. Served over a pty pair or a
+127.0.0.1 socket from a thread.
 """
 from __future__ import annotations
 
@@ -19,10 +29,11 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
+from grbl_double_parser import ParserState
 from machine.increments.receiver import Endpoint, PtyEndpoint
 
 BANNER = b"Grbl 1.1h ['$' for help]\r\n"
-WORD_RE = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
+JOG_CANCEL = 0x85
 
 
 @dataclass
@@ -36,45 +47,57 @@ class Faults:
     realtime_delay_s: float = 0.0  # realtime bytes take effect this late ("within tens of ms")
 
 
+DEFAULT_SETTINGS = {0: 10, 1: 25, 10: 3, 11: 0.01, 12: 0.002, 13: 0, 20: 0, 21: 0, 22: 0,
+                    100: 250.0, 101: 250.0, 102: 250.0, 110: 6000.0, 111: 6000.0, 112: 6000.0,
+                    120: 1000.0, 121: 1000.0, 122: 1000.0, 130: 2000.0, 131: 2000.0, 132: 2000.0}
+
+
 class GrblDouble:
-    """The protocol state machine; `receive` takes bytes, `tick` advances time; output in `outbox`."""
+    """The protocol state machine; `receive` takes bytes, `tick` advances time; output in `outbox`.
+    `pos` is the machine position; `executed` lists (line, machine target) as blocks ran."""
 
     def __init__(self, *, rx_size=128, planner_blocks=15, drain_s_per_block=0.0, wco=(5.0, -3.0, 1.0),
-                 settings=None, faults: Faults | None = None, partial_blocks: bool = False):
+                 mpos=(0.0, 0.0, 0.0), settings=None, faults: Faults | None = None, partial_blocks: bool = False,
+                 line_numbers: bool = False, mist: bool = True, hold_decel_s: float = 0.0):
         self.rx_size, self.planner_blocks = rx_size, planner_blocks
         self.drain_s = drain_s_per_block
         self.partial_blocks = partial_blocks  # a hold stops inside the running block (lines and arcs)
         self.partials: list[tuple[str, tuple]] = []  # blocks cut short by a reset: (line, where)
-        self.wco = tuple(wco)
-        self.settings = settings or {0: 10, 1: 25, 10: 3, 11: 0.01, 12: 0.002, 13: 0, 20: 0, 21: 0, 22: 0,
-                                     100: 250.0, 101: 250.0, 102: 250.0, 110: 6000.0, 111: 6000.0,
-                                     112: 6000.0, 120: 1000.0, 121: 1000.0, 122: 1000.0,
-                                     130: 2000.0, 131: 2000.0, 132: 2000.0}
+        self.line_numbers, self.mist, self.hold_decel_s = line_numbers, mist, hold_decel_s
+        self.settings = dict(settings or DEFAULT_SETTINGS)
         self.faults = faults or Faults()
         self.outbox = bytearray()
         self.rx = bytearray()
         self.max_rx_fill = 0
         self.rx_overflow = 0
-        self.planner: deque = deque()
-        self.pos = [0.0, 0.0, 0.0]  # work coordinates of the machine
-        self.executed: list[tuple[str, tuple | None]] = []  # (line, target) in the order it took effect
+        self.planner: deque = deque()  # (line, machine target, arc, N)
+        self.pos = [float(v) for v in mpos]  # machine position
+        self.gc = ParserState({c: [0.0, 0.0, 0.0] for c in (54, 55, 56, 57, 58, 59)}, self.pos)
+        self.gc.offsets[54] = [float(v) for v in wco]
+        self.executed: list[tuple[str, tuple | None]] = []  # (line, machine target) in the order it took effect
         self.lines_received = 0
         self.received: list[str] = []  # every non-empty line as it arrived
         self.state, self.sub = "Idle", 0
+        self.cycle = False  # a cycle start has been given: planner blocks run
+        self.check_mode = False
         self.alarm_lock = False
-        self.feed_ov = 100
+        self.ov = [100, 100, 100]  # feed, rapid, spindle
         self.hung = False
         self._reports = 0
         self._realtime: deque = deque()  # (due time, byte)
-        self._ov_reported = 100
+        self._ov_reported = list(self.ov)
         self._t_block = 0.0
+        self._hold_done = 0.0
         self._busy_until = 0.0
-        self._reset_modal()
         self.outbox += BANNER
 
-    def _reset_modal(self):
-        self.parser_pos = list(self.pos)
-        self.motion, self.feed, self.plane = 0, None, 17
+    @property
+    def wco(self) -> tuple:
+        return tuple(self.gc.wco)
+
+    @property
+    def wpos(self) -> list[float]:
+        return [p - o for p, o in zip(self.pos, self.gc.wco)]
 
     # --- bytes in ---------------------------------------------------------
     def receive(self, data: bytes, now: float) -> None:
@@ -90,55 +113,78 @@ class GrblDouble:
                 self.max_rx_fill = max(self.max_rx_fill, len(self.rx))
         self._apply_realtime(now)
 
+    def _moving(self) -> bool:
+        return self.state in ("Run", "Jog", "Home") or (self.state == "Hold" and self.sub == 1)
+
     def _apply_realtime(self, now: float) -> None:
         while self._realtime and self._realtime[0][0] <= now:
             c = self._realtime.popleft()[1]
             if c == 0x3F:
-                self._status()
-            elif c == 0x21:
-                if self.state == "Run" or (self.state == "Idle" and self.planner):
-                    self._drain(now)
+                self._status(now)
+            elif c == 0x21 and self.state in ("Idle", "Run"):
+                self._drain(now)
+                if self.state == "Run":
                     if self.partial_blocks and self.planner and self.drain_s:
                         self.pos = self._inside(self.planner[0], min(1.0, (now - self._t_block) / self.drain_s))
+                    self.state, self.sub, self._hold_done = "Hold", (1 if self.hold_decel_s else 0), \
+                        now + self.hold_decel_s
+                else:  # no cycle running: grbl holds at once, nothing moves
                     self.state, self.sub = "Hold", 0
-            elif c == 0x7E:
-                if self.state == "Hold":
-                    self.state, self._t_block = ("Run" if self.planner else "Idle"), now
+                self.cycle = False
+            elif c == 0x7E and self.state == "Hold" and self.sub == 0:
+                self.cycle = bool(self.planner)
+                self.state, self._t_block = ("Run" if self.planner else "Idle"), now
             elif c == 0x18:
                 if self.partial_blocks and self.planner and self.pos != list(self.planner[0][1]):
                     self.partials.append((self.planner[0][0], tuple(self.pos)))
                 self._reset()
+            elif c == JOG_CANCEL and self.state == "Jog":
+                self.planner.clear()
+                self.state, self.cycle = "Idle", False
             elif 0x90 <= c <= 0x94:
-                self.feed_ov = {0x90: 100, 0x91: self.feed_ov + 10, 0x92: self.feed_ov - 10,
-                                0x93: self.feed_ov + 1, 0x94: self.feed_ov - 1}[c]
-                self.feed_ov = min(200, max(10, self.feed_ov))
+                f = {0x90: 100, 0x91: self.ov[0] + 10, 0x92: self.ov[0] - 10, 0x93: self.ov[0] + 1,
+                     0x94: self.ov[0] - 1}[c]
+                self.ov[0] = min(200, max(10, f))
+            elif 0x95 <= c <= 0x97:
+                self.ov[1] = {0x95: 100, 0x96: 50, 0x97: 25}[c]
+            elif 0x99 <= c <= 0x9D:
+                s = {0x99: 100, 0x9A: self.ov[2] + 10, 0x9B: self.ov[2] - 10, 0x9C: self.ov[2] + 1,
+                     0x9D: self.ov[2] - 1}[c]
+                self.ov[2] = min(200, max(10, s))
 
     def _reset(self):
-        moving = self.state == "Run" or (self.state == "Idle" and self.planner)
+        moving = self._moving()
         self.rx.clear()
         self.planner.clear()
+        self.cycle = False
         self._busy_until = 0.0
         if moving:
             self.outbox += b"ALARM:3\r\n"
             self.alarm_lock = True
-        self._reset_modal()
-        self.state = "Alarm" if self.alarm_lock else "Idle"
+        self.gc.reset(self.pos)
+        self.check_mode = False
+        self.state, self.sub = ("Alarm" if self.alarm_lock else "Idle"), 0
         self._reports = 0
         self.outbox += BANNER
         if self.alarm_lock:
             self.outbox += b"[MSG:'$H'|'$X' to unlock]\r\n"
 
-    def _status(self):
-        mpos = ",".join(f"{p + o:.3f}" for p, o in zip(self.pos, self.wco))
+    def _status(self, now: float):
+        if self.state == "Hold" and self.sub == 1 and now >= self._hold_done:
+            self.sub = 0
+        mpos = ",".join(f"{p:.3f}" for p in self.pos)
         state = f"{self.state}:{self.sub}" if self.state == "Hold" else self.state
-        free_rx = self.rx_size - 1 - len(self.rx)
-        feed = self.feed or 0.0
-        s = f"<{state}|MPos:{mpos}|Bf:{self.planner_blocks - len(self.planner)},{free_rx}|FS:{feed:.0f},0"
+        s = f"<{state}|MPos:{mpos}"
+        if int(self.settings.get(10, 1)) & 2:
+            s += f"|Bf:{self.planner_blocks - len(self.planner)},{self.rx_size - 1 - len(self.rx)}"
+        if self.line_numbers and self.planner and self.planner[0][3] is not None:
+            s += f"|Ln:{self.planner[0][3]}"
+        s += f"|FS:{self.gc.feed:.0f},0"
         if self._reports % 10 == 0:
-            s += "|WCO:" + ",".join(f"{o:.3f}" for o in self.wco)
-        elif self._reports % 10 == 1 or self.feed_ov != self._ov_reported:  # Ov at once when it changed
-            s += f"|Ov:{self.feed_ov},100,100"
-            self._ov_reported = self.feed_ov
+            s += "|WCO:" + ",".join(f"{o:.3f}" for o in self.gc.wco)
+        elif self._reports % 10 == 1 or self.ov != self._ov_reported:  # Ov at once when it changed
+            s += "|Ov:" + ",".join(str(v) for v in self.ov)
+            self._ov_reported = list(self.ov)
         self._reports += 1
         self.outbox += (s + ">\r\n").encode()
 
@@ -147,37 +193,46 @@ class GrblDouble:
         if self.hung:
             return
         self._apply_realtime(now)
+        if self.state == "Hold" and self.sub == 1 and now >= self._hold_done:
+            self.sub = 0
         self._drain(now)
-        while not self.hung and now >= self._busy_until and (i := self.rx.find(b"\n")) >= 0:
+        while not self.hung and now >= self._busy_until and not (self.state == "Hold" and self.sub == 0) \
+                and (i := self.rx.find(b"\n")) >= 0:
             raw = bytes(self.rx[:i]).decode("ascii", "replace").rstrip("\r")
             line = re.sub(r"\s|\(.*?\)", "", raw).upper()
-            moves = bool(re.search(r"[XYZ]", line)) and not line.startswith("$")
+            moves = bool(re.search(r"[XYZ]", line)) and not line.startswith("$") and not self.check_mode
             if moves and len(self.planner) >= self.planner_blocks:
+                self._cycle_start(now)  # a full planner starts the cycle (motion_control.c)
                 break  # grbl takes the line only once a planner block is free
-            if not moves and ("M" in line or line.startswith("G4")) and self.planner:
-                break  # M-codes and dwells wait for the planner to empty
+            if not moves and re.search(r"M|G4", line) and self.planner and not self.check_mode:
+                self._cycle_start(now)  # M-codes and dwells wait for the planner to empty
+                break
             del self.rx[: i + 1]
             self._line(raw, now)
             if self.faults.ack_delay_s:
                 self._busy_until = now + self.faults.ack_delay_s
+        if self.rx.find(b"\n") < 0 and self.planner:
+            self._cycle_start(now)  # nothing left to parse: auto cycle start (protocol.c)
         self._drain(now)
 
+    def _cycle_start(self, now: float) -> None:
+        if self.state == "Idle" and not self.cycle and self.planner:
+            self.cycle, self.state, self._t_block = True, "Run", now
+
     def _drain(self, now: float):
-        if self.state == "Idle" and self.planner:
-            self.state, self._t_block = "Run", now
-        while self.state == "Run" and self.planner and now - self._t_block >= self.drain_s:
-            text, target, _ = self.planner.popleft()
+        while self.state in ("Run", "Jog") and self.planner and now - self._t_block >= self.drain_s:
+            text, target, _, _ = self.planner.popleft()
             self.pos = list(target)
             self.executed.append((text, tuple(target)))
             self._t_block += self.drain_s if self.drain_s else 0.0
             if not self.drain_s:
                 self._t_block = now
-        if self.state == "Run" and not self.planner:
-            self.state = "Idle"
+        if self.state in ("Run", "Jog") and not self.planner:
+            self.state, self.cycle = "Idle", False
 
     def _inside(self, block, f: float) -> list[float]:
         """The point a fraction f along a block that starts at the machine position."""
-        _, target, arc = block
+        _, target, arc, _ = block
         s = self.pos
         if arc is None:
             return [p + f * (t - p) for p, t in zip(s, target)]
@@ -216,100 +271,82 @@ class GrblDouble:
         if line in f.alarm_on:
             code = f.alarm_on.pop(line)
             self.planner.clear()
-            self.alarm_lock = True
+            self.alarm_lock, self.cycle = True, False
             self.state = "Alarm"
             self.outbox += f"ALARM:{code}\r\n".encode()
             return self._answer("error:9")
         if line.startswith("$"):
-            return self._system(line)
+            return self._system(line, now)
         if self.state == "Alarm":
             return self._answer("error:9")
-        code = self._gcode(line)
+        code, block, effect = self.gc.parse(line, self.mist)
+        if code == 0 and not self.check_mode:
+            if block is not None:
+                self.planner.append((line, *block))
+            elif effect is not None and effect[0] in ("dwell", "mcode"):
+                self.executed.append((line, None))
+                if effect[0] == "mcode" and 0 in effect[1]:
+                    self.state, self.sub = "Hold", 0
         self._answer("ok" if code == 0 else f"error:{code}")
 
-    def _system(self, line: str):
+    def _system(self, line: str, now: float):
         if line == "$$":
             for k in sorted(self.settings):
                 self._answer(f"${k}={self.settings[k]:.3f}" if isinstance(self.settings[k], float)
                              else f"${k}={self.settings[k]}")
         elif line == "$I":
+            opts = "V" + ("N" if self.line_numbers else "") + ("M" if self.mist else "")
             self._answer("[VER:1.1h.20190825:]")
-            self._answer(f"[OPT:V,{self.planner_blocks},{self.rx_size}]")
+            self._answer(f"[OPT:{opts},{self.planner_blocks},{self.rx_size}]")
+        elif line == "$G":
+            self._answer(self.gc.modal_report())
+        elif line == "$#":
+            for text in self.gc.params_report():
+                self._answer(text)
         elif line == "$X":
             if self.state == "Alarm":
                 self._answer("[MSG:Caution: Unlocked]")
                 self.alarm_lock, self.state = False, "Idle"
+        elif line == "$H":
+            if not int(self.settings.get(22, 0)):
+                return self._answer("error:5")
+            self.pos = [0.0, 0.0, 0.0]
+            self.gc.pos = list(self.pos)
+            self.alarm_lock, self.state = False, "Idle"
+        elif line == "$C":
+            if self.state not in ("Idle", "Check"):
+                return self._answer("error:8")
+            if self.check_mode:
+                self._answer("[MSG:Disabled]")
+                self._answer("ok")
+                self._reset()
+                return
+            self.check_mode, self.state = True, "Check"
+            self._answer("[MSG:Enabled]")
+        elif line.startswith("$J="):
+            return self._jog(line[3:], now)
+        elif m := re.match(r"^\$(\d+)=(-?[0-9.]+)$", line):
+            if self.state not in ("Idle", "Alarm"):
+                return self._answer("error:8")
+            self.settings[int(m.group(1))] = float(m.group(2))
         else:
             return self._answer("error:3")
         self._answer("ok")
 
-    def _gcode(self, line: str) -> int:
-        pos = 0
-        words: dict[str, float] = {}
-        gs, ms = [], []
-        for m in WORD_RE.finditer(line):
-            if m.start() != pos:
-                return 1
-            pos = m.end()
-            letter, value = m.group(1), float(m.group(2))
-            if letter == "G":
-                gs.append(value)
-            elif letter == "M":
-                ms.append(value)
-            elif letter in words:
-                return 25
-            elif letter in "XYZIJKFPSTN":
-                words[letter] = value
-            else:
-                return 20
-        if pos != len(line):
-            return 2 if pos else 1
-        motion = self.motion
-        for g in gs:
-            if g in (0, 1, 2, 3):
-                motion = int(g)
-            elif g in (17, 18, 19):
-                self.plane = int(g)
-            elif g == 4:
-                if "P" not in words:
-                    return 28
-                self.executed.append((line, None))
-                return 0
-            elif g not in (21, 90, 91.1, 94, 54):
-                return 20
-        for m in ms:
-            if m not in (0, 1, 2, 30, 3, 4, 5, 7, 8, 9):
-                return 20
-            if m == 0:
-                self.state, self.sub = "Hold", 0
-        if "F" in words:
-            self.feed = words["F"]
-        axes = [words.get(a) for a in "XYZ"]
-        if any(a is not None for a in axes):
-            target = [p if a is None else a for p, a in zip(self.parser_pos, axes)]
-            if motion in (1, 2, 3) and not self.feed:
-                return 22
-            if motion in (2, 3):
-                a, b = {17: (0, 1), 18: (2, 0), 19: (1, 2)}[self.plane]
-                off = {0: "I", 1: "J", 2: "K"}
-                if off[a] not in words and off[b] not in words:
-                    return 35
-                ca = self.parser_pos[a] + words.get(off[a], 0.0)
-                cb = self.parser_pos[b] + words.get(off[b], 0.0)
-                r0 = math.hypot(self.parser_pos[a] - ca, self.parser_pos[b] - cb)
-                r1 = math.hypot(target[a] - ca, target[b] - cb)
-                if abs(r0 - r1) > max(0.005, 0.001 * r0):
-                    return 33
-            arc = None
-            if motion in (2, 3):
-                n = 3 - a - b
-                arc = (a, b, n, ca, cb, motion == 3)
-            self.motion = motion
-            self.parser_pos = target
-            self.planner.append((line, tuple(target), arc))
-        elif ms or (not gs and words.keys() - {"F"}):
-            self.executed.append((line, None))
-        return 0
+    def _jog(self, words: str, now: float):
+        if self.state not in ("Idle", "Jog"):
+            return self._answer("error:8")
+        if re.search(r"G[0-3](?!\d)|M", words):
+            return self._answer("error:16")
+        if "F" not in words:
+            return self._answer("error:22")
+        saved = (self.gc.motion, self.gc.incremental, self.gc.inch, self.gc.feed)
+        code, block, _ = self.gc.parse("G1" + words, self.mist)
+        self.gc.motion, self.gc.incremental, self.gc.inch, self.gc.feed = saved  # a jog leaves the modes alone
+        if code == 0 and block is not None:
+            self.planner.append(("$J=" + words, *block))
+            self.state, self._t_block = "Jog", now
+        self._answer("ok" if code == 0 else f"error:{code}")
 
 
 class PtyServer(PtyEndpoint):

@@ -10,6 +10,7 @@ same order as ipr.entities.PLANE_AXES; |rotation| is the number of revolutions (
 """
 from __future__ import annotations
 
+import math
 import shutil
 import subprocess
 from pathlib import Path
@@ -21,7 +22,8 @@ from ipr.entities import PLANE_AXES
 
 RS274 = shutil.which("rs274")
 INCH_MM = 25.4
-HALF_LAST_DIGIT = 0.5e-4  # rs274 prints lengths with "%.4f"
+HALF_LAST_DIGIT = 0.5e-4
+_ATTEMPTS = 4  # rs274 prints lengths with "%.4f"
 
 _PLANES = {"CANON_PLANE_XY": "XY", "CANON_PLANE_XZ": "ZX", "CANON_PLANE_YZ": "YZ"}
 
@@ -48,11 +50,18 @@ def require_rs274() -> str:
     return RS274
 
 
-def run_rs274(path: Path, var_file: Path | None = None) -> str:
-    """rs274's canon output for `path`; raises with rs274's own message if it rejects the program."""
+def run_rs274(path: Path, var_file: Path | None = None, tool_table: Path | None = None) -> str:
+    """rs274's canon output for `path`; raises with rs274's own message if it rejects the program.
+    rs274 alone reads a tool table's lengths and diameters in inches."""
     # -b turns block delete on, as it is by default in vcnc (ipr.Setup.block_delete)
-    cmd = [require_rs274(), "-g", "-b"] + (["-v", str(var_file)] if var_file else []) + [str(path)]
-    done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120)
+    cmd = ([require_rs274(), "-g", "-b"] + (["-v", str(var_file)] if var_file else [])
+           + (["-t", str(tool_table)] if tool_table else []) + [str(path)])
+    # rs274 keeps its tool table in shared memory under a fixed key: runs of other processes at
+    # the same moment can crash it or swap tables, so a refusal is believed only when repeated
+    for _ in range(_ATTEMPTS):
+        done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120)
+        if done.returncode == 0:
+            break
     if done.returncode != 0:
         raise RuntimeError(f"rs274 rejected {path}: {done.stderr.strip()}")
     return done.stdout
@@ -69,6 +78,8 @@ def canon_moves(output: str) -> list[CanonMove]:
     tool_z_mm = 0.0
     plane = "XY"
     feed_mm_s = 0.0
+    rotation_rad = 0.0
+    per_rev, rpm = False, 0.0   # G95: the printed feed is per revolution
     path = (False, 0.0, 0.0)
     moves: list[CanonMove] = []
     for text in output.splitlines():
@@ -95,9 +106,19 @@ def canon_moves(output: str) -> list[CanonMove]:
             path = (path[0], path[1], float(args) * mm_per_unit)
         elif name == "SET_FEED_RATE":
             feed_mm_s = _numbers(args)[0] * mm_per_unit / 60.0
+        elif name == "SET_FEED_MODE":
+            per_rev = _numbers(args)[1] == 1
+        elif name == "SET_SPINDLE_SPEED":
+            rpm = _numbers(args)[1]
+        elif name == "SET_XY_ROTATION":
+            rotation_rad = math.radians(_numbers(args)[0])
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "ARC_FEED"):
             offset = (g5x[0] + g92[0], g5x[1] + g92[1], g5x[2] + g92[2] + tool_z_mm)
             v = _numbers(args)
+            if rotation_rad:   # emccanon: program + G92, rotated, + G5x (+ tool)
+                offset = (g5x[0], g5x[1], offset[2])
+                v = _rotated(v, name, plane, g92, mm_per_unit, rotation_rad)
+            move_feed = feed_mm_s * rpm if per_rev else feed_mm_s
             tol = HALF_LAST_DIGIT * mm_per_unit
             if name == "ARC_FEED":
                 a, b, n = PLANE_AXES[plane]
@@ -109,11 +130,30 @@ def canon_moves(output: str) -> list[CanonMove]:
                 # the centre's normal-axis coordinate is left as NaN: vcnc puts it at the start's
                 center_mm = tuple(center[i] * mm_per_unit + offset[i] if i != n else float("nan")
                                   for i in range(3))
-                moves.append(CanonMove("arc", end_mm, feed_mm_s, tol, center_mm, plane, int(v[4]), *path))
+                moves.append(CanonMove("arc", end_mm, move_feed, tol, center_mm, plane, int(v[4]), *path))
             else:
                 end_mm = (v[0] * mm_per_unit + offset[0], v[1] * mm_per_unit + offset[1],
                           v[2] * mm_per_unit + offset[2])
                 kind = "rapid" if name == "STRAIGHT_TRAVERSE" else "line"
-                moves.append(CanonMove(kind, end_mm, None if kind == "rapid" else feed_mm_s, tol, None, None, None,
+                moves.append(CanonMove(kind, end_mm, None if kind == "rapid" else move_feed, tol, None, None, None,
                                        *path))
     return moves
+
+
+def _rotated(v: list[float], name: str, plane: str, g92, mm_per_unit: float, rad: float) -> list[float]:
+    """A canon call's numbers with G92 added and X/Y (and an XY arc's centre) rotated, in program units."""
+    v = list(v)
+    c, s = math.cos(rad), math.sin(rad)
+    gx, gy = g92[0] / mm_per_unit, g92[1] / mm_per_unit
+
+    def turn(x, y):
+        x, y = x + gx, y + gy
+        return x * c - y * s, x * s + y * c
+    if name != "ARC_FEED":
+        v[0], v[1] = turn(v[0], v[1])
+    elif plane == "XY":
+        v[0], v[1] = turn(v[0], v[1])
+        v[2], v[3] = turn(v[2], v[3])
+    else:
+        raise ValueError("rotated arcs outside G17 are not read")
+    return v

@@ -206,6 +206,22 @@ def test_events_dwell_and_stop_in_order():
     assert kinds[-1] == "ProgramEnd"
 
 
+@pytest.mark.parametrize("stop", [Dwell(5, 0.1), Stop(5, False)])
+def test_a_blended_corner_before_an_event_does_not_trim_the_move_after_a_stop(stop):
+    """Two blended rapids, an event (held at the second one's end, so its corner was built
+    ahead), then a dwell or a stop: the move after it starts where the machine stands and
+    moves no axis faster than its limit (a stale corner trim cut 0.12 mm off its start)."""
+    ents = [Rapid(1, (0, 0, 10), (5, 5, 10), G64), Rapid(2, (5, 5, 10), (5, 5, 3.8), G64),
+            Spindle(3, 1000.0, "cw"), Message(4, "at depth"), stop,
+            Line(6, (5, 5, 3.8), (5, 5, 1.5), 10.0, G64), Line(7, (5, 5, 1.5), (55, 5, 1.5), 40.0, G64)]
+    _, out, start = run(ents)
+    assert_within_limits(out["pos_mm"], start)
+    after = out["line"] == 6
+    first = np.flatnonzero(after)[0]
+    np.testing.assert_allclose(out["pos_mm"][first - 1], [5, 5, 3.8], atol=1e-9)
+    assert np.abs(out["pos_mm"][first] - out["pos_mm"][first - 1]).max() <= 10.0 * T
+
+
 def test_feed_override_and_live_change():
     line = [Line(1, (0, 0, 0), (100, 0, 0), 50.0)]
     _, out, _ = run(line, feed_override=0.5)
@@ -395,3 +411,19 @@ def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_i
         list(plan_periods([Line(3, (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), 10.0)], default_config()))
     assert (info.value.code, info.value.line) == (START, 3)
     assert str(info.value) == "line 3: motion starts at [1.0, 0.0, 0.0] but the machine stands at [0.0, 0.0, 0.0]"
+
+
+def test_a_builds_driver_changes_leave_the_windows_drivers_alone():
+    from ipo.feed.driver_changes import DriverChanges
+    base = {0: "curve 0", 1: "curve 1"}
+    ch = DriverChanges(base, next_index=5, make_driver=lambda e: f"driver of {e}")
+    ch[0] = "curve 0 trimmed"
+    del ch[1]
+    assert (ch.add("blend a"), ch.add("blend b")) == (5, 6)
+    assert ch[0] == "curve 0 trimmed" and ch[6] == "driver of blend b"
+    with pytest.raises(KeyError):
+        ch[1]
+    with pytest.raises(KeyError):
+        del ch[9]
+    assert base == {0: "curve 0", 1: "curve 1"}
+    assert ch.changed == {0: "curve 0 trimmed", 1: None, 5: "driver of blend a", 6: "driver of blend b"}

@@ -1,16 +1,18 @@
 """`vcnc stream` end to end against the grbl test double and the increment receiver."""
 from __future__ import annotations
 
+import dataclasses
 import re
 from pathlib import Path
 
 import numpy as np
 from click.testing import CliRunner
 
-from grbl_emulator import Faults, GrblDouble, PtyServer
+from grbl_emulator import GrblDouble, PtyServer
 from ipo.config import default_config
 from ipr import parse_file
 from machine.cli import main
+from machine.grbl.job import build_job, machine_at_zero
 from machine.grbl.program import stream_lines
 from machine.increments import frames as F
 from machine.increments.receiver import IncrementReceiver, SocketEndpoint
@@ -23,6 +25,14 @@ def _expected_lines():
     return list(stream_lines(prog.entities, default_config(), ipo_from_start=True))
 
 
+def _lines_for(double):
+    """The stream for DEMO on a machine standing where `double` stands, in its G54 frame."""
+    zero = machine_at_zero()
+    state = dataclasses.replace(zero, mpos_mm=tuple(double.pos), wco_mm=double.wco,
+                                offsets_mm={**zero.offsets_mm, "G54": double.wco})
+    return build_job(DEMO, default_config(), state).lines
+
+
 def test_dry_run_writes_exactly_the_stream():
     res = CliRunner().invoke(main, ["stream", str(DEMO), "--dry-run"])
     assert res.exit_code == 0, res.output
@@ -31,13 +41,15 @@ def test_dry_run_writes_exactly_the_stream():
     assert all(len(t) <= 79 for t in want.splitlines())
 
 
-def test_a_clean_stream_sends_exactly_the_dry_run_lines():
+def test_a_clean_stream_sends_exactly_the_dry_run_lines(tmp_path):
+    """On a machine at zero with no offsets (what --dry-run assumes) the stream is the dry run's."""
     dry = CliRunner().invoke(main, ["stream", str(DEMO), "--dry-run"]).stdout_bytes.decode("ascii").splitlines()
-    d = GrblDouble()
+    d = GrblDouble(wco=(0.0, 0.0, 0.0))
     with PtyServer(d).start() as srv:
-        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20"])
+        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20",
+                                        "--ledger", str(tmp_path / "l")])
     assert res.exit_code == 0, res.output
-    assert d.received[:2] == ["$$", "$I"] and d.received[2:] == dry
+    assert d.received[:4] == ["$$", "$I", "$G", "$#"] and d.received[4:] == dry
     assert d.max_rx_fill <= 127 and d.rx_overflow == 0
 
 
@@ -58,18 +70,20 @@ def test_increment_frames_sent_are_the_dry_run_frames():
     assert {f.kind for f in got[1:]} <= {F.DATA, F.POLL}
 
 
-def test_stream_resume_after_error_through_the_cli():
-    lines = _expected_lines()
+def test_stream_resume_after_error_through_the_cli(tmp_path):
+    d = GrblDouble(drain_s_per_block=0.01, mpos=(3.0, 4.0, 5.0))  # planner never runs dry
+    lines = _lines_for(d)
     bad = lines[len(lines) // 2]
-    d = GrblDouble(drain_s_per_block=0.01, faults=Faults(error_on={bad.text: 33}))  # planner never runs dry
+    d.faults.error_on[bad.text] = 33
+    led = ["--ledger", str(tmp_path / "demo.ledger")]
     with PtyServer(d).start() as srv:
-        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20"])
+        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--poll-hz", "20", *led])
         assert res.exit_code == 1
         assert f"error:33 on stream line {bad.seq} (program line {bad.source_line}" in res.output
         resume = int(re.search(r"--resume-from (\d+)", res.output).group(1))
         assert resume <= bad.seq
-        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--resume-from", str(resume),
-                                        "--poll-hz", "20"])
+        assert f"--resume   (stream line {resume}" in res.output
+        res = CliRunner().invoke(main, ["stream", str(DEMO), "--port", srv.port, "--resume", "--poll-hz", "20", *led])
     assert res.exit_code == 0, res.output
     ran = [t for _, t in d.executed if t is not None]
     want = [l.end_mm for l in lines if l.motion]

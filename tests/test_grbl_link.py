@@ -13,6 +13,7 @@ from ipr.entities import Arc, Coolant, Dwell, Line, ProgramEnd, Rapid, Spindle
 from machine.grbl.ledger import Ledger, LedgerError
 from machine.grbl.link import GrblLink, LinkError
 from machine.grbl.program import StreamLine, stream_lines
+from machine.grbl.words import Format
 
 CFG = default_config()
 # Short poll and settle times keep the tests quick; the timeouts stay generous for a loaded machine.
@@ -36,7 +37,9 @@ def _program():
     return ents
 
 
-LINES = list(stream_lines(_program(), CFG))
+WCO = (5.0, -3.0, 1.0)  # the double's G54 offset: lines are written in that work frame
+FMT = Format(WCO, CFG.blu_mm / 10)
+LINES = list(stream_lines(_program(), CFG, fmt_=FMT))
 MOTION_ENDS = [l.end_mm for l in LINES if l.motion]
 
 
@@ -71,7 +74,7 @@ def _semicircles(n=30):
         q = (p[0] + 4.0, 0.0, -1.0)
         ents.append(Arc(2 + i, p, q, (p[0] + 2.0, 0.0, -1.0), "XY", bool(i % 2), 20.0))
         p = q
-    return list(stream_lines(ents, CFG))
+    return list(stream_lines(ents, CFG, fmt_=FMT))
 
 
 def _assert_covers(first, second, total):
@@ -92,8 +95,8 @@ def test_clean_stream_over_pty_fills_the_rx_buffer_and_runs_every_line():
     assert all(res.ledger.state(l.seq) == "ok" and res.ledger.sends(l.seq) == 1 for l in LINES)
     _assert_ran_once(d)
     assert max(res.rx_fill) <= 127 and max(res.rx_fill) > 90  # counting keeps the buffer nearly full
-    assert res.status.state == "Idle" and res.status.wpos == pytest.approx(MOTION_ENDS[-1], abs=1e-3)
-    assert res.status.mpos == pytest.approx([a + b for a, b in zip(MOTION_ENDS[-1], d.wco)], abs=1e-3)
+    assert res.status.state == "Idle" and res.status.mpos == pytest.approx(MOTION_ENDS[-1], abs=1e-3)
+    assert res.status.wpos == pytest.approx([a - b for a, b in zip(MOTION_ENDS[-1], WCO)], abs=1e-3)
 
 
 def test_error_on_a_line_stops_reports_and_resume_finishes():
@@ -129,7 +132,7 @@ def test_hold_inside_a_block_resumes_from_the_machine_position(arcs):
         res, _ = _session(srv.port, lines)
         assert res.fault.kind == "error" and res.resume.partial  # stopped inside a block, not at its end
         cut, where = d.partials[-1]
-        assert ("G2" in cut or "G3" in cut) if arcs else cut.startswith("G1")
+        assert ("G2" in cut or "G3" in cut) == arcs
         assert res.resume.at_mm == pytest.approx(where, abs=1e-3)
         res2, point = _session(srv.port, lines, resume_from=res.resume.seq)
     assert point.partial and point.seq == res.resume.seq
@@ -138,12 +141,11 @@ def test_hold_inside_a_block_resumes_from_the_machine_position(arcs):
 
 
 def test_lines_grbl_ran_past_a_rejected_line_are_reported_and_fail_the_ledger():
-    """With an empty planner grbl runs the lines it still has after an error before the
-    hold takes effect: the report says so and the ledger refuses to call the session
-    complete. (Slow lines keep grbl's RX buffer topped up; the hold acts 0.1 s late.)"""
+    """grbl runs the lines it still has after an error before the hold takes effect (its
+    RX buffer runs empty, so it starts the cycle; the hold acts 0.1 s late): the report
+    says so and the ledger refuses to call the session complete."""
     bad = next(l for l in LINES if l.source_line == 40)
-    d = GrblDouble(drain_s_per_block=0.0,
-                   faults=Faults(error_on={bad.text: 20}, ack_delay_s=0.02, realtime_delay_s=0.1))
+    d = GrblDouble(drain_s_per_block=0.0, faults=Faults(error_on={bad.text: 20}, realtime_delay_s=0.1))
     with PtyServer(d).start() as srv:
         res, _ = _session(srv.port, LINES)
     ran = [t for _, t in d.executed if t is not None]
@@ -228,15 +230,16 @@ def test_a_board_that_stops_answering_is_reported_with_the_last_ack():
         res, _ = _session(srv.port, LINES, stall_timeout_s=0.5)
     assert res.fault.kind == "stalled"
     last = res.ledger.last_acknowledged
-    assert last == 30  # $$ and $I were lines 1 and 2 the double counted
+    assert last == 28  # $$, $I, $G and $# were lines 1 to 4 the double counted
     assert f"--resume-from {last + 1}" in res.fault.message
 
 
 def _big_arc_lines():
-    big = 12345678901.0  # 80 characters with the modal words, 68 without
-    s, c = (big, big, -big), (big + 5.0, big, -big)
-    e = (big + 10.0, big, -big)
-    return list(stream_lines([Rapid(1, (0.0, 0.0, 0.0), s), Arc(2, s, e, c, "XY", True, 10.0)], CFG))
+    """A helical YZ arc far out: more than 79 characters with its modal words, fewer without."""
+    big, r = 1234567890123.0, 123456.5
+    s = (big + 0.125, big + 0.375, -big - 0.625)
+    c, e = (s[0], s[1] + 0.6 * r, s[2] + 0.8 * r), (s[0] + 1.5, s[1] + 1.4 * r, s[2] + 0.2 * r)
+    return list(stream_lines([Rapid(1, (0.0, 0.0, 0.0), s), Arc(2, s, e, c, "YZ", True, 10.0)], CFG, fmt_=FMT))
 
 
 def test_a_line_too_long_for_grbl_is_split_and_runs():
@@ -253,7 +256,7 @@ def test_a_line_too_long_for_grbl_is_split_and_runs():
 
 
 def test_a_line_that_cannot_be_split_is_refused_not_truncated():
-    huge = 1e20
+    huge = 1e30
     from machine.grbl.program import StreamProgramError
     with pytest.raises(StreamProgramError, match=r"line 7: .* characters; grbl takes at most 79"):
         list(stream_lines([Rapid(7, (0.0, 0.0, 0.0), (huge, huge, huge))], CFG))
@@ -267,7 +270,7 @@ def test_a_line_that_cannot_be_split_is_refused_not_truncated():
         with pytest.raises(LinkError, match="longer than"):
             link.command("G4P" + "0" * 80)
         link.close()
-    assert d.lines_received == 2  # only $$ and $I reached the board
+    assert d.lines_received == 4  # only $$, $I, $G and $# reached the board
 
 
 def test_ledger_refuses_duplicates_and_orphan_answers():
@@ -326,7 +329,7 @@ def test_realtime_hold_resume_and_feed_override_reach_grbl():
         res = link.stream(LINES, Ledger(1), on_progress=progress, progress_interval_s=0.0)
         link.close()
     assert res.completed and seen[:2] == ["held", "resumed"] and "ov" in seen
-    assert d.feed_ov == 111
+    assert d.ov[0] == 111
     _assert_ran_once(d)
     with pytest.raises(ValueError, match="not a grbl realtime command"):
         link.realtime(b"G")

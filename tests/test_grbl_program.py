@@ -12,6 +12,7 @@ from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Coolant, Line, Nurbs, ProgramEnd, Rapid, Spindle, ToolChange
 from machine.grbl import protocol as P
 from machine.grbl.program import StreamLine, StreamProgramError, merge_polyline, resume_text, stream_lines
+from machine.grbl.words import Format, fmt
 from machine.grbl.resume import ResumeError, find_resume
 
 CFG = default_config()
@@ -55,22 +56,45 @@ def test_settings_and_build_info():
     assert old.rx_buffer_bytes is None
 
 
-def test_passthrough_lines_are_absolute_and_explicit():
+def test_passthrough_lines_are_compact_and_exact():
+    """Modal words where they change, axis words where the axis moves, numbers as short as
+    a tenth of the 1 um BLU allows; written by hand from the G-code semantics."""
     ents = [Spindle(1, 1000.0, "ccw"), Coolant(2, True, True), Rapid(3, (0, 0, 0), (1, 2, 3)),
-            Line(4, (1, 2, 3), (-0.00001, 2, 3), 10.0),
-            Arc(5, (0, 2, 3), (0, 2, 3), (0, 2, 0), "ZX", True, 5.0, turns=1),
-            ToolChange(6, 3), ProgramEnd(7)]
+            Line(4, (1, 2, 3), (-0.00001, 2, 3), 10.0), Line(5, (0, 2, 3), (0.5, -2.25, 3), 10.0),
+            Arc(6, (0.5, -2.25, 3), (0.5, -2.25, 3), (0.5, -2.25, 0), "ZX", True, 5.0, turns=1),
+            ToolChange(7, 3), ProgramEnd(8)]
     notes = []
     lines = list(stream_lines(ents, CFG, notices=notes))
     texts = [l.text for l in lines]
-    assert texts[:7] == ["G21G90G91.1G94G17", "M4S1000.0000", "M9", "M7", "M8", "G0X1.0000Y2.0000Z3.0000",
-                         "G1X0.0000Y2.0000Z3.0000F600.0000"]
-    # a full circle plus one extra turn: two full circles of radius 3 in ZX, K = centre - start
+    # grbl's parser after a reset is in mm, absolute, units/min: no preamble is needed
+    assert texts[:7] == ["M4S1000", "M9", "M7", "M8", "G0X1Y2Z3", "G1F600X0", "X.5Y-2.25"]
+    # a full circle plus one extra turn: two full circles of radius 3 in ZX, K = centre - start;
+    # the end equals the start, so one in-plane axis word is written (grbl's error:32 otherwise)
     arcs = [l for l in lines if l.arc]
-    assert len(arcs) == 2 and all(t.text.startswith("G18F300.0000G3") for t in arcs)
-    assert arcs[0].text.endswith("I0.0000K-3.0000") and arcs[0].end_mm == pytest.approx((0, 2, 3))
+    assert [a.text for a in arcs] == ["G18G3F300Z3K-3", "Z3K-3"]
+    assert arcs[0].end_mm == pytest.approx((0.5, -2.25, 3))
     assert texts[-2:] == ["M0", "M2"] and "T3" in notes[0]
     assert [l.seq for l in lines] == list(range(1, len(lines) + 1))
+    # restoring after a reset sets every mode the line runs in
+    assert arcs[1].restore == ("G21G90G94G18G3F300", "M4S1000", "M7", "M8")
+
+
+def test_work_frame_g53_preamble_and_line_numbers():
+    """Lines are written in the WCO's work frame; a G53 move goes out as G53 in machine
+    coordinates; grbl in G20/G91 gets G21G90 first; numbered lines carry N<seq>."""
+    fmt_ = Format((10.0, 20.0, -30.0), 1e-4, numbered=True)
+    ents = [Rapid(1, (50, 50, -5), (50, 50, -2)), Line(2, (50, 50, -2), (60, 50, -2), 5.0)]
+    lines = list(stream_lines(ents, CFG, start_mm=(50, 50, -5), fmt_=fmt_, g53_lines=frozenset({(None, 1)}),
+                              modal=("G0", "G54", "G17", "G20", "G91", "G94")))
+    assert [l.text for l in lines] == ["N1G21G90", "N2G53G0Z-2", "N3G1F300X50"]
+    assert lines[2].start_mm == (50, 50, -2) and lines[2].end_mm == (60, 50, -2)
+
+
+def test_numbers_have_the_fewest_decimals_within_a_tenth_of_the_blu():
+    tol = 1e-4
+    assert [fmt(v, tol) for v in (0.5, -0.5, 10.0, -0.00004, 12.3456789, 100.00004, 1.23449)] == \
+        [".5", "-.5", "10", "0", "12.3457", "100", "1.2345"]
+    assert all(abs(float(fmt(v, tol)) - v) <= tol for v in np.linspace(-7, 7, 1001) * math.pi)
 
 
 def test_helical_turns_split_into_equal_arcs_on_the_helix():
@@ -128,10 +152,10 @@ def test_nurbs_goes_out_as_g1_segments_at_the_planned_feed_within_tolerance():
     nurbs = _quarter_circle()
     lines = list(stream_lines([nurbs], CFG, start_mm=(30, 20, 0), merge_tol_mm=0.001,
                               plan=_fake_plan(40.0, CFG.period_s)))
-    segs = lines[1:]
-    assert all(l.text.startswith("G1") and l.source_line == 9 for l in segs)
+    segs = lines
+    assert segs[0].text.startswith("G1F2400") and all(l.source_line == 9 for l in segs)
     assert segs[-1].end_mm == pytest.approx((20, 30, 0))
-    feeds = [float(l.text.split("F")[1]) for l in segs[:-1]]
+    feeds = [l.feed_mm_min for l in segs[:-1]]
     assert feeds == pytest.approx([40.0 * 60] * len(feeds), rel=1e-3)  # the planned 40 mm/s
     # every vertex lies on the radius-10 circle about (20, 20), every chord's sagitta <= tolerance
     ends = np.array([l.end_mm for l in segs])
@@ -158,12 +182,13 @@ def test_find_resume_inside_at_start_and_after_idempotent_lines():
 
 def test_resume_inside_an_arc_recomputes_ijk_from_the_machine_position():
     center = (0.0, 0.0, 0.0)
-    arc = StreamLine(3, 3, "G17F600.0000G3X0.0000Y10.0000Z0.0000I-10.0000J0.0000", (10.0, 0, 0), (0, 10.0, 0),
-                     True, (), (center, "XY", True, 600.0))
+    arc = StreamLine(3, 3, "G3X0Y10I-10", (10.0, 0, 0), (0, 10.0, 0), True, (), (center, "XY", True, 600.0),
+                     Format((1.0, 2.0, 3.0)), 600.0)
     p = (10 * math.cos(0.3), 10 * math.sin(0.3), 0.0)
     point = find_resume([arc], p)
     assert point.partial and point.seq == 3
-    assert resume_text(arc, p) == (f"G17F600.0000G3X0.0000Y10.0000Z0.0000I{-p[0]:.4f}J{-p[1]:.4f}")
+    # written in the work frame (machine - (1, 2, 3)); IJK = centre - the machine position
+    assert resume_text(arc, p) == f"G3X-1Y8I{-p[0]:.4f}J{-p[1]:.4f}"
 
 
 def test_resume_near_the_joint_of_two_tangent_arcs_picks_the_arc_the_machine_is_on():
@@ -185,20 +210,22 @@ def test_resume_near_the_joint_of_two_tangent_arcs_picks_the_arc_the_machine_is_
 def test_stream_demand_by_hand():
     from machine.grbl.budget import stream_demand
 
-    # 100 moves of 0.1 mm at 6000 mm/min (100 mm/s): 1000 lines/s of 34 characters + newline
+    # 100 moves of 0.1 mm at 6000 mm/min (100 mm/s): 1000 lines/s of "X10.1" .. "X19.9", 5 characters
+    # + newline (the first line carries G1F6000, the tenths that end in 0 are shorter: "X11", "X20")
     ents, p = [], (10.0, 0.0, 0.0)
     for i in range(100):
         q = (round(10.0 + 0.1 * (i + 1), 4), 0.0, 0.0)
         ents.append(Line(i + 1, p, q, 100.0))
         p = q
     lines = list(stream_lines(ents, CFG, start_mm=(10.0, 0.0, 0.0)))
-    assert {len(l.text) for l in lines[1:]} == {34}
+    assert lines[0].text == "G1F6000X10.1" and lines[9].text == "X11"
+    assert {len(l.text) for l in lines[1:] if l.seq % 10} == {5}
     d = stream_demand(lines, baud=115200, planner_blocks=15, accel_mm_s2=1000.0)
-    assert d.peak_bytes_s == pytest.approx(35 * 1000.0)
+    assert d.peak_bytes_s == pytest.approx(6 * 1000.0, rel=0.15)
     assert d.capacity_bytes_s == 11520.0
     # 15 blocks span 1.5 mm: stopping within them allows sqrt(2 * 1000 * 1.5) = 54.77 mm/s
     assert d.slowest_ratio == pytest.approx(math.sqrt(3000.0) / 100.0)
-    assert len(d.warnings) == 2 and "35000 bytes/s" in d.warnings[0] and "3286 mm/min" in d.warnings[1]
+    assert len(d.warnings) == 1 and "3286 mm/min" in d.warnings[0]
     slow = stream_demand(lines, baud=1_000_000, planner_blocks=15, accel_mm_s2=1e6)
     assert slow.warnings == []
 
@@ -219,5 +246,5 @@ def test_nurbs_sent_through_the_ipo_stays_within_the_merge_tolerance_of_the_exac
     assert len(poly) > 50 and np.allclose(poly[-1], nurbs.end)
     seg = poly[:-1, None] + np.linspace(0, 1, 101)[None, :, None] * np.diff(poly, axis=0)[:, None]
     assert np.abs(np.hypot(seg[..., 0], seg[..., 1]) - 10.0).max() <= 0.001
-    with pytest.raises(StreamProgramError, match="decimals"):
+    with pytest.raises(StreamProgramError, match="merge tolerance 5e-05 mm must exceed"):
         list(stream_lines(prog.entities, CFG, merge_tol_mm=5e-5))

@@ -12,10 +12,23 @@ CASES = [
     ("G1 X1 $", "E-SYNTAX", 1, 7),
     ("G0 X1\nG1 X[1+] F100", "E-SYNTAX", 2, 8),
     ("G0 X1\nG1 X2 Y", "E-SYNTAX", 2, 8),
-    ("G1 A1", "E-WORD-UNSUPPORTED", 1, 4),
-    ("G0 X1\n  G41 X2", "E-GCODE-UNSUPPORTED", 2, 3),
-    ("G93 G1 X1 F1", "E-GCODE-UNSUPPORTED", 1, 1),
-    ("G0 X1\nG28", "E-GCODE-UNSUPPORTED", 2, 1),
+    ("G1 E1", "E-WORD-UNUSED", 1, 4),
+    ("G1 A1", "E-AXIS-ABSENT", 1, 4),
+    ("G0 X1\nM3 S100 G1 W2 F10", "E-AXIS-ABSENT", 2, 12),
+    ("G0 X1\n  G41 X2", "E-COMP", 2, 3),
+    ("G0 X1 G33 X2 K1", "E-GCODE-UNSUPPORTED", 1, 7),
+    ("G0 X1\nG38.2 Z-5 F10", "E-GCODE-UNSUPPORTED", 2, 1),
+    ("G0 X1\nG76 P1 Z-5 I1 J1 K1", "E-GCODE-UNSUPPORTED", 2, 1),
+    ("G0 Z5\nG81 X1 Z-1 F100", "E-CYCLE", 2, 1),
+    ("G0 Z5\nG0 Z5 F10\nG83 X1 Z-2 R1 Q0", "E-CYCLE", 3, 15),
+    ("G0 Z5\nG86 X1 Z-2 R1 P1 F100", "E-SPINDLE", 2, 1),
+    ("G10 L2 X1", "E-OFFSET", 1, 1),
+    ("G10 L3 P1 X1", "E-OFFSET", 1, 5),
+    ("G0 X1\nG28.1 X2", "E-OFFSET", 2, 7),
+    ("G93 G1 X1 F10\nG1 X2", "E-FEED-MODE", 2, 1),
+    ("G95 G1 X1 F0.1", "E-FEED-MODE", 1, 5),
+    ("G0 X1\nM101", "E-MCODE-USER", 2, 1),
+    ("G21\n  $H", "E-DIALECT", 2, 3),
     ("G0 X1 M77", "E-MCODE-UNSUPPORTED", 1, 7),
     ("G0 X1 X2", "E-WORD-REPEATED", 1, 7),
     ("G0 G1 X1", "E-MODAL-GROUP", 1, 4),
@@ -113,8 +126,8 @@ def test_error_table_is_documented():
 
 
 def test_messages_name_the_code_or_the_number():
-    assert "G41" in _first_error("G41 X1").message
-    assert "G28" in _first_error("G28").message
+    assert "G76" in _first_error("G0 X1\nG76 P1 Z-5 I1 J1 K1").message
+    assert "G33" in _first_error("G0 X1 G33 X2 K1").message
     assert "0.200 mm off the circle" in _first_error("F100 G2 X2 Y0 I1.1").message
     assert "line 2" in _first_error("F100\nG6.2 P3 K0\nX1 K0\nK0\nK1\nK1\nK1").message
 
@@ -129,7 +142,7 @@ def test_all_errors_collects_every_error_and_continues():
     with pytest.raises(GCodeError) as info:
         ipr.parse_text(text, "p.nc", all_errors=True)
     got = [(d.line, d.code) for d in info.value.diagnostics]
-    assert got == [(2, "E-GCODE-UNSUPPORTED"), (3, "E-FEED-ZERO"), (4, "E-WORD-REPEATED"),
+    assert got == [(2, "E-COMP"), (3, "E-FEED-ZERO"), (4, "E-WORD-REPEATED"),
                    (6, "E-MCODE-UNSUPPORTED")]
 
 

@@ -104,7 +104,7 @@ needs_chromium = pytest.mark.skipif(browser.CHROMIUM is None,
 
 def _open(page_path: Path, shot: Path):
     page = browser.Page(page_path.as_uri())
-    page.wait_for("window.vcncReport && (window.vcncReport.ready || document.getElementById('error'))")
+    page.wait_for("window.vcncReport && (window.vcncReport.ready || !!document.getElementById('error'))")
     assert page.evaluate("window.vcncReport.ready"), page.evaluate("document.getElementById('error').textContent")
     return page
 
@@ -167,3 +167,73 @@ def test_finishing_report_in_chromium_names_the_traced_line(tmp_path):
         shot = page.screenshot(tmp_path / "finish.png")
         assert page.errors == []
     assert _not_blank(shot) > 0.05
+
+
+@needs_chromium
+def test_compare_report_in_chromium_aligns_both_programs_by_distance(tmp_path):
+    g2, nurbs = ROOT / "programs" / "circle_g2.nc", ROOT / "programs" / "circle_nurbs.nc"
+    out = tmp_path / "cmp.html"
+    r = vcnc("compare", g2, nurbs, "--report", out)
+    assert r.exit_code == 0, r.stderr
+    g2_line = _source_line(g2, r"^G2 X10 Y0 I-10")
+    nurbs_lines = [i + 1 for i, text in enumerate(nurbs.read_text().splitlines()) if re.match(r"G06\.2|K", text)]
+    with _open(out, tmp_path / "cmp.png") as page:
+        assert _plots(page) == 2
+        # both start with 5 mm of rapid up, 10 mm across and 5 mm down to the circle of radius 10
+        # about X0 Y0 (from the G2's I-10): half way round it, both tools are on that circle
+        picks = page.evaluate("window.vcncReport.selectDistance(20 + 10 * Math.PI)")
+        assert [p["line"] for p in picks][0] == g2_line and picks[1]["line"] in nurbs_lines
+        for p in picks:
+            assert math.hypot(p["pos"][0], p["pos"][1]) == pytest.approx(10, abs=0.01)
+            assert p["pos"][0] == pytest.approx(-10, abs=0.05)
+        assert page.evaluate("document.getElementById('pick').textContent").count("line ") == 2
+        shot = page.screenshot(tmp_path / "cmp.png")
+        assert page.errors == []
+    assert _not_blank(shot) > 0.05
+
+
+def test_surface_grid_keeps_the_deepest_point_of_each_block():
+    from machine.report.build import surface_grid
+
+    x, y = np.linspace(0, 10, 1001), np.linspace(0, 5, 501)
+    z = np.zeros((len(y), len(x)))
+    z[123, 456] = -0.3  # a one-node gouge
+    gx, gy, gz = surface_grid(x, y, z, nodes=100)
+    assert gz.shape == (len(gy), len(gx)) and len(gx) <= 100 and len(gy) <= 100
+    assert gz.min() == -0.3 and np.count_nonzero(gz) == 1
+    j, i = np.argwhere(gz == -0.3)[0]
+    assert gx[i] <= x[456] < gx[i] + (gx[1] - gx[0]) and gy[j] <= y[123] < gy[j] + (gy[1] - gy[0])
+
+
+@needs_chromium
+def test_workpiece_surface_is_drawn_when_the_run_has_one(tmp_path):
+    from types import SimpleNamespace
+
+    from machine.report.build import machine_info, run_report
+
+    program, result, digest, _ = _demo_run()
+    x, y = np.linspace(-5, 35, 81), np.linspace(-5, 35, 81)
+    z = -0.01 * ((x[None, :] - 15) ** 2 + (y[:, None] - 15) ** 2) / 10
+    out = run_report(tmp_path / "surface.html", digest, program=program, summary=result.summary(),
+                     machine=machine_info(None), surface=SimpleNamespace(x_mm=x, y_mm=y, z_mm=z))
+    with _open(out, tmp_path / "surface.png") as page:
+        kinds = page.evaluate("document.getElementById('path3d').data.map(t => t.type)")
+        assert "surface" in kinds
+        zs = page.evaluate("document.getElementById('path3d').data.find(t => t.type === 'surface').z.flat()")
+        assert min(zs) == pytest.approx(z.min(), abs=1e-6) and len(zs) == z.size
+        assert page.errors == []
+
+
+def test_run_with_a_workpiece_puts_its_surface_in_the_report(tmp_path):
+    import json as json_
+
+    out = tmp_path / "cut.html"
+    r = vcnc("run", DEMO, "--machine", FINISH_MACHINE, "--stock=-5,-5,-2,35,35,1", "--grid-um", 250,
+             "--report", out)
+    assert r.exit_code == 0, r.stderr
+    text = out.read_text()
+    info = json_.loads(re.search(r'id="vcnc-info">(.*?)</script>', text).group(1))
+    assert info["runs"][0]["surface"] is True
+    dtype, _, size, shape = info["arrays"]["r0_surf_z"]
+    # the stock is 40 x 40 mm at 250 um: 161 nodes a side, under the page's 300
+    assert shape == [161, 161] and size == 161 * 161

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from ipo.feed import roughness as rg
+from ipo import roughness as rg
 
 R, FP, TARGET, Z, S = 3.0, 0.2, 0.0033, 2, 12500.0
 

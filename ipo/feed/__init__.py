@@ -8,12 +8,14 @@ Pipeline (`planner.FeedPlanner`, per look-ahead window):
   (`curvature_continuous`) and their compiled kernels (`compiled`).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
 - `sampling`: where along the path the limits are evaluated.
-- `limits`: caps on v^2 at the samples, each with its reason; `roughness`: 002's
-  surface-roughness model and limiter (eq. 1–6).
+- `limits`: caps on v^2 at the samples, each with its reason, 002's roughness limiter
+  among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too).
 - `lookahead`: the phase-plane profile and its time parameterisation.
 - `scurve`: the jerk-limiting moving average of S-curve mode.
-- `emission`: planned arc lengths -> quantised positions -> `PeriodBatch`.
+- `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
+  one object with one owner, the planner; `driver_changes`: what one build made.
+- `emission`: planned arc lengths -> quantised positions -> `PeriodBatch`; reads the window.
 - `planner`: `plan_periods`, the stage's entry point.
 
-May import: ipo.config, ipo.contracts, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.contracts, ipo.errors, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

@@ -7,9 +7,9 @@ exactly by arc length, a NURBS walked by its stepper), quantises them to BLU inc
 (ipo.feed.scurve) and cuts the batches where events sit.
 
 It owns the state that belongs to the machine rather than to the plan: where the machine
-stands (in mm and in BLU) and the S-curve filter with the arc length it has put out. The
-planner's window (pieces, where they start, their NURBS drivers, pending events) is passed
-in on each call, because the planner keeps trimming and extending it between calls.
+stands (in mm and in BLU) and the S-curve filter with the arc length it has put out. It
+reads the planner's window (ipo.feed.window: pieces, where they start, their NURBS
+drivers, pending events) on each call and changes nothing in it.
 """
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ from ipo.config import MachineConfig
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
+from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
 from ipo.feed.scurve import MovingAverage
 
@@ -73,14 +74,13 @@ class PeriodOutput:
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
         self.s_out = 0.0  # arc length of the last period sent (S-curve filter output)
 
-    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, pieces: Pieces, pstart: np.ndarray,
-                nurbs: dict[int, NurbsDriver], events: list, *, flush: bool) -> Iterator:
+    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, *, flush: bool):
         """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
-        filter in that mode; `flush` runs the filter out at a stop. Events due by the end
-        are popped from `events` (the planner's own list) and yielded in place."""
+        filter in that mode; `flush` runs the filter out at a stop. The window's events due
+        by the end are yielded in place; the generator returns how many (the window's owner
+        drops them: this side only reads the window)."""
         if self.fir is None:
-            yield from self._batch(sv, s_prev, limit, pieces, pstart, nurbs, events)
-            return
+            return (yield from self._batch(sv, s_prev, limit, window))
         smooth = self.fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
         if flush:
             limit = np.concatenate([limit, np.full(self.fir.m - 1, LIMIT_ACCEL, np.int8)])
@@ -89,11 +89,12 @@ class PeriodOutput:
             s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
         prev = self.s_out
         self.s_out = float(s_f[-1])
-        yield from self._batch(s_f, prev, limit, pieces, pstart, nurbs, events)
+        return (yield from self._batch(s_f, prev, limit, window))
 
-    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, pieces: Pieces, pstart: np.ndarray,
-               nurbs: dict[int, NurbsDriver], events: list) -> Iterator:
-        """Points at arc lengths sv, quantised; split where events sit."""
+    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window):
+        """Points at arc lengths sv, quantised; split where events sit. Returns the number
+        of the window's events put out."""
+        pieces, pstart, nurbs, events = window.pieces, window.pstart, window.drivers, window.events
         loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
         # a period ending exactly on a piece boundary belongs to the piece it completes
         on_edge = (loc > 0) & (sv <= pstart[loc] + 1e-12)
@@ -114,9 +115,10 @@ class PeriodOutput:
         qpos = (self.blu + np.cumsum(inc, axis=0)) * self.blu_mm
         self.blu = end
         self.pos = pos[-1].copy()
-        cut = 0
-        while events and events[0][0] <= sv[-1] + 1e-9:
-            s_ev, ev = events.pop(0)
+        cut = used = 0
+        while used < len(events) and events[used][0] <= sv[-1] + 1e-9:
+            s_ev, ev = events[used]
+            used += 1
             j = max(int(np.searchsorted(sv, s_ev + 1e-9, side="right")), cut)
             if j > cut:
                 yield PeriodBatch(qpos[cut:j], inc[cut:j], feed[cut:j], limit[cut:j], line[cut:j])
@@ -124,6 +126,7 @@ class PeriodOutput:
             yield ev
         if cut < len(sv):
             yield PeriodBatch(qpos[cut:], inc[cut:], feed[cut:], limit[cut:], line[cut:])
+        return used
 
     def stand(self, seconds: float, line: int) -> Iterator[PeriodBatch]:
         """A dwell: periods standing where the machine is."""

@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 from ipo.contracts import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_ROUGHNESS
-from ipo.feed.roughness import inclination_rad, roughness_feed_mm_s
+from ipo.roughness import inclination_rad, roughness_feed_mm_s
 
 _TINY = 1e-12
 # The roughness cap is planned a hair below its value: the profile meets it at samples and

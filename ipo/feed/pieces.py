@@ -33,6 +33,7 @@ from ipo.nurbs import kernel as nk
 from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
+from ipo.feed.driver_changes import DriverChanges
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 KIND_ANALYTIC = 0
@@ -154,23 +155,35 @@ def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
     pc.length[i] = length
 
 
+class Built(NamedTuple):
+    """What one build made: the pieces, the trim of the held-back motion, and the drivers
+    it added or trimmed (to apply to the owner's window)."""
+
+    pieces: Pieces
+    trim_mm: float
+    drivers: DriverChanges
+
+
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, nurbs, add_blend, min_blend_radius_mm: float = 0.0,
-          g2_limits: tuple[float, float, float, float] | None = None) -> tuple[Pieces, float]:
+          rapid_mm_s: float, drivers, next_index: int, make_driver, min_blend_radius_mm: float = 0.0,
+          g2_limits: tuple[float, float, float, float] | None = None) -> Built:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
     Without `final`, the last motion is held back (its end corner needs the next move);
     the returned trim is how much of its start the corner blend already took: pass it
     back as lead_trim_mm with the held-back motion first in the next call.
-    `nurbs` maps the owner's NURBS index to its driver (ipo.feed.nurbs_driver: entity, arc-length
-    table, trimmed()); a NURBS trimmed by corner blends gets the driver of its remaining part
-    at the same index. `add_blend(nurbs_entity)` registers a corner blend curve and returns
-    its index. A corner whose blend radius would be below min_blend_radius_mm is not blended
+    `drivers` maps the owner's NURBS index to its driver (ipo.feed.nurbs_driver: entity,
+    arc-length table, trimmed()) and is only read; the result's `drivers` holds a NURBS
+    trimmed by corner blends with the driver of its remaining part at the same index, and
+    each corner blend curve with the driver `make_driver` made for it at the next free
+    index from `next_index` on. A corner whose blend radius would be below min_blend_radius_mm is not blended
     (S-curve mode: ipo.feed.limits.min_blend_radius_mm). With g2_limits = (a, j, x_min, step)
     (S-curve mode: ipo.feed.limits.g2_blend_limits) a corner between two lines gets the
     curvature-continuous blend of ipo.feed.blends.curvature_continuous where it is faster than both the arc and a
     stop (ipo.feed.blends.curvature_continuous.g2_corners).
     """
+    nurbs = DriverChanges(drivers, next_index, make_driver)
+    add_blend = nurbs.add
     n = len(motions)
     ents = [m[0] for m in motions]
     tol_of: dict = {}
@@ -290,7 +303,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         else:
             _trimmed_nurbs(pc, slot, motions[i][2], nurbs, trim_in[i], trim_out[i])
     keep = pc.length > _MIN_PIECE_MM  # blends may leave float-noise remnants of a straight
-    return pc.take(np.nonzero(keep)[0]), (0.0 if final else float(trim_in[n - 1]))
+    return Built(pc.take(np.nonzero(keep)[0]), 0.0 if final else float(trim_in[n - 1]), nurbs)
 
 
 def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:

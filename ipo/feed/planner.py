@@ -35,12 +35,13 @@ from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, centripetal_binds, period_reasons
 from ipo.feed.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
-from ipo.feed.roughness import cusp_height_mm
+from ipo.roughness import cusp_height_mm
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.split import corner_parts
+from ipo.feed.window import Window
 from ipo.feed.sampling import Samples, nurbs_table, sample
 from ipo.feed.scurve import MovingAverage
-from ipr.entities import (MOTION_TYPES, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
+from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
@@ -51,6 +52,13 @@ _BUILD_CHUNK = 2048  # motions turned into pieces per call
 _START_TOL_MM = 1e-6
 _STANDSTILL_X = 1e-12  # v^2 below this (v < 1 um/s) counts as standing still
 
+
+
+def nurbs_end_gap_mm(config: MachineConfig) -> float:
+    """The gap of the end samples of the planner's NURBS tables (sampling.nurbs_table): two
+    periods at the top path speed. The controller's check tables the curves the same way."""
+    v_top = float(np.linalg.norm(np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE))
+    return 2 * v_top * config.period_s
 
 class FeedPlanner:
     """Streaming look-ahead planner; see the module docstring."""
@@ -68,22 +76,10 @@ class FeedPlanner:
         self.T = config.period_s
         self.v_max = np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE
         self.a_max = np.array([a.max_accel_mm_s2 for a in config.axes]) * ACCEL_USE
-        # look-ahead state: pieces and samples not yet emitted (where the machine stands is
-        # the output side's, self._output)
-        self._motions: list[tuple] = []  # pending (entity, rpm, nurbs index), as Motion
-        self._trim = 0.0
-        self._pieces: Pieces | None = None
-        self._piece_base = 0  # global index of self._pieces[0]
-        self._pstart = np.zeros(0)  # global arc length where each held piece starts
-        self._smp: Samples | None = None
-        self._cap = np.zeros(0)
-        self._reason = np.zeros(0, np.int8)
-        self._corner = np.zeros(0, bool)
-        self._x0 = 0.0  # v^2 at the first held sample
-        self._s_end = 0.0  # arc length at the end of everything built
+        self._motions: list[tuple] = []  # intake: pending (entity, rpm, nurbs index), as Motion
+        self._trim = 0.0  # how much of the held-back motion's start its corner blend took
+        self._win = Window()  # the look-ahead window (where the machine stands is self._output's)
         self._phase = self.T  # time from the first held sample to the next period end
-        self._events: list[tuple[float, object]] = []
-        self._nurbs: dict[int, NurbsDriver] = {}
         self._s_last = 0.0  # planned arc length at the end of the last period
         self._fir = None
         self._j_max = None
@@ -102,10 +98,9 @@ class FeedPlanner:
         self._g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
         # the output side runs the filter; the planner reads only its span (fir.m)
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
-        self._n_nurbs = 0
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
-        self._v_top = float(np.linalg.norm(self.v_max))
+        self._end_gap_mm = nurbs_end_gap_mm(config)
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -123,7 +118,7 @@ class FeedPlanner:
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
                     continue  # a move to where the machine stands: no motion, no corner
-                if not motions and self._smp is None:
+                if not motions and self._win.samples is None:
                     self._check_start(e)
                 motions.append((e, self._rpm, -1))
                 if len(motions) > _BUILD_CHUNK:
@@ -134,8 +129,8 @@ class FeedPlanner:
                 if len(self._motions) > _BUILD_CHUNK:
                     self._build(final=False)
                     yield from self._plan(final=False)
-            elif isinstance(e, (Spindle, Coolant, Message)):
-                if self._smp is None and not self._motions:
+            elif isinstance(e, (Spindle, Coolant, Message, Auxiliary)):
+                if self._win.samples is None and not self._motions:
                     yield e  # standing still: nothing to wait for
                 else:
                     self._build_pending_event(e)
@@ -161,111 +156,82 @@ class FeedPlanner:
 
     def _take_motion(self, e) -> None:
         """Arcs and NURBS, a NURBS as its parts between its corners (lines take the lean path in run)."""
-        if self._smp is None and not self._motions:
+        if self._win.samples is None and not self._motions:
             self._check_start(e)
         for m in corner_parts(e) if isinstance(e, Nurbs) else (e,):
-            self._motions.append(Motion(m, self._rpm, self._add_nurbs(m) if isinstance(m, Nurbs) else -1))
+            idx = self._win.add_driver(self._driver(m)) if isinstance(m, Nurbs) else -1
+            self._motions.append(Motion(m, self._rpm, idx))
 
-    def _add_nurbs(self, e: Nurbs) -> int:
-        idx = self._n_nurbs
-        self._n_nurbs += 1
-        self._nurbs[idx] = NurbsDriver(e, nurbs_table(e, end_gap_mm=2 * self._v_top * self.T), self.method)
-        return idx
+    def _driver(self, e: Nurbs) -> NurbsDriver:
+        return NurbsDriver(e, nurbs_table(e, end_gap_mm=self._end_gap_mm), self.method)
 
     def _build_pending_event(self, e) -> None:
         """An event happens where the motions read so far end: at the end of the held-back
         motion (its end corner is not known yet, so the point is its programmed end)."""
-        s_ev = self._s_end
+        s_ev = self._win.s_end_mm
         if self._motions:
             self._build(final=False)
-            s_ev = self._s_end + motion_length(self._motions[0], self._nurbs) - self._trim
-        self._events.append((s_ev, e))
+            s_ev = self._win.s_end_mm + motion_length(self._motions[0], self._win.drivers) - self._trim
+        self._win.events.append((s_ev, e))
 
     def _flush(self) -> Iterator:
         if self._motions:
             self._build(final=True)
-        if self._smp is not None:
+        if self._win.samples is not None:
             yield from self._plan(final=True)
-        for _, ev in self._events:
+        for _, ev in self._win.events:
             yield ev
-        self._events.clear()
+        self._win.events.clear()
 
     # ---- pieces and samples ----------------------------------------------------------
     def _build(self, *, final: bool) -> None:
         """Turn the pending motions into pieces and samples (all but the last unless final)."""
-        motions = self._motions
+        motions, win = self._motions, self._win
         if len(motions) < 2 and not final:
             return
-        pc, trim = build(motions, final=final, lead_trim_mm=self._trim,
-                         blend_default_mm=self.cfg.g64_blend_tol_mm, rapid_mm_s=self.cfg.rapid_mm_s,
-                         nurbs=self._nurbs, add_blend=self._add_nurbs, min_blend_radius_mm=self._blend_r_min,
-                         g2_limits=self._g2_limits)
+        built = build(motions, final=final, lead_trim_mm=self._trim, blend_default_mm=self.cfg.g64_blend_tol_mm,
+                      rapid_mm_s=self.cfg.rapid_mm_s, drivers=win.drivers, next_index=win.n_drivers,
+                      make_driver=self._driver, min_blend_radius_mm=self._blend_r_min, g2_limits=self._g2_limits)
+        win.apply(built.drivers.changed, built.drivers.added)
         if final:
             motions.clear()
+            # the last motion was built whole: nothing is held back, so no corner of it
+            # reaches into the next motion (a stale trim cut the start off the first move
+            # after a dwell or a stop that followed an event)
+            self._trim = 0.0
         else:
             del motions[:-1]
-            self._trim = trim
-        self._append(pc)
-
-    def _append(self, pc: Pieces) -> None:
+            self._trim = built.trim_mm
+        pc = built.pieces
         if len(pc) == 0:
             return
-        tables = {int(i): self._nurbs[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
-        smp = sample(pc, self._s_end, tables, end_gap_mm=2 * self._v_top * self.T)
-        if self._pieces is None:
-            base = self._piece_base
-            self._pieces = pc
-            self._pstart = self._s_end + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
-        else:
-            base = self._piece_base + len(self._pieces)
-            self._pieces = Pieces.concat([self._pieces, pc])
-            self._pstart = np.concatenate([self._pstart, self._s_end + np.concatenate(
-                [[0.0], np.cumsum(pc.length)[:-1]])])
-        smp.piece += base
-        local = self._pieces
-        if self._smp is None:
-            cap, reason, corner = self._caps(smp, local)
-            self._smp, self._cap, self._reason, self._corner = smp, cap, reason, corner
-        else:
-            # the last two held samples are capped again: a corner where the windows join
-            # also caps the sample before it (limits.CORNER_SHARE)
-            j = min(2, len(self._smp))
-            joined = Samples.concat([self._smp.tail(len(self._smp) - j), smp])
-            cap, reason, corner = self._caps(joined, local)
-            lower = cap[:j] < self._cap[-j:]
-            self._cap[-j:] = np.where(lower, cap[:j], self._cap[-j:])
-            self._reason[-j:] = np.where(lower, reason[:j], self._reason[-j:])
-            self._corner[-j:] |= corner[:j]
-            self._smp = Samples.concat([self._smp, smp])
-            self._cap = np.concatenate([self._cap, cap[j:]])
-            self._reason = np.concatenate([self._reason, reason[j:]])
-            self._corner = np.concatenate([self._corner, corner[j:]])
-        self._s_end += float(pc.length.sum())
+        tables = {int(i): win.drivers[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
+        win.append(pc, sample(pc, win.s_end_mm, tables, end_gap_mm=self._end_gap_mm), self._caps)
 
-    def _caps(self, smp: Samples, pc: Pieces):
-        rel = Samples(smp.s, smp.t, smp.kv, smp.piece - self._piece_base, smp.sigma)
+    def _caps(self, rel: Samples, pc: Pieces):
         return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing,
                            self._j_max)
 
     # ---- look-ahead and emission -----------------------------------------------------
     def _soft_caps(self) -> tuple[np.ndarray, np.ndarray]:
-        loc = self._smp.piece - self._piece_base
-        feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
+        win = self._win
+        loc = win.samples.piece - win.piece_base
+        feed = win.pieces.feed_mm_s[loc] * np.where(win.pieces.rapid[loc], 1.0, self._override)
         xf = feed**2
-        hard = self._cap
+        hard = win.cap
         if self._fir is not None:
-            hard = low_caps_to_stops(hard, self._smp.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
-            hard = spread_min(self._smp.s, hard, self._fir.m * self.T, self.T, float(np.linalg.norm(self.a_max)))
+            hard = low_caps_to_stops(hard, win.samples.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
+            hard = spread_min(win.samples.s, hard, self._fir.m * self.T, self.T, float(np.linalg.norm(self.a_max)))
         prog = xf < hard
-        return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, self._reason).astype(np.int8)
+        return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, win.reason).astype(np.int8)
 
     def _plan(self, *, final: bool) -> Iterator:
-        while self._smp is not None and len(self._smp) > 1:
+        while self._win.samples is not None and len(self._win.samples) > 1:
             self._override_changed = False
-            smp = self._smp
+            smp = self._win.samples
             cap, reason = self._soft_caps()
             ascale = self._ascale(len(smp), cap)
-            x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._x0, 0.0)
+            x = la.plan(smp.s, smp.t, smp.kv, cap, self.a_max, ascale, self._win.x0_v2, 0.0)
             x[x < _STANDSTILL_X] = 0.0  # rounding residue of braking to a stop is a stop
             if final:
                 c = len(smp) - 1
@@ -273,7 +239,7 @@ class FeedPlanner:
                 # what lies one stopping distance (at this window's top speed) before the
                 # window's end cannot depend on the moves not read yet
                 reach = float(cap.max()) / (2 * self.a_max.min()) + 1e-3
-                c = int(np.searchsorted(smp.s, self._s_end - reach, side="right")) - 1
+                c = int(np.searchsorted(smp.s, self._win.s_end_mm - reach, side="right")) - 1
                 if c < 1:
                     return
             # stops inside (G61 and the like) are emitted one by one from the same plan, so
@@ -290,24 +256,25 @@ class FeedPlanner:
                     break
             if not (final or self._override_changed):
                 return
-        if final and self._smp is not None and len(self._smp) <= 1:
-            self._reset_window()
+        if final and self._win.samples is not None and len(self._win.samples) <= 1:
+            self._win.reset()
 
     def _ascale(self, n: int, cap: np.ndarray) -> np.ndarray:
         """Share of the path acceleration in the first n - 1 sample intervals: halved next to
         sharp corners; in S-curve mode also kept within the jerk on curves (jerk_accel_scale)."""
-        scale = np.where(self._corner[:n - 1] | self._corner[1:n], CORNER_SHARE, 1.0)
+        win = self._win
+        scale = np.where(win.corner[:n - 1] | win.corner[1:n], CORNER_SHARE, 1.0)
         if self._j_max is not None:
-            scale = np.minimum(scale, jerk_accel_scale(self._smp.t[:n], self._smp.kv[:n], cap[:n], self.a_max,
+            scale = np.minimum(scale, jerk_accel_scale(win.samples.t[:n], win.samples.kv[:n], cap[:n], self.a_max,
                                                        float(self._j_max.min())))
         return scale
 
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
-        smp = self._smp
+        smp = self._win.samples
         ascale = self._ascale(c + 1, cap)
-        loc = smp.piece[:c + 1] - self._piece_base
-        feed = self._pieces.feed_mm_s[loc] * np.where(self._pieces.rapid[loc], 1.0, self._override)
+        loc = smp.piece[:c + 1] - self._win.piece_base
+        feed = self._win.pieces.feed_mm_s[loc] * np.where(self._win.pieces.rapid[loc], 1.0, self._override)
         plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
@@ -350,40 +317,15 @@ class FeedPlanner:
                     t_next = times[-1] + self.T
                 break
         self._phase = t_next - (tc[r_stop] if k_stop < c else tc[c_ref])
-        self._x0 = float(x[k_stop])
-        self._drop(k_stop)
+        self._win.x0_v2 = float(x[k_stop])
+        self._win.drop(k_stop, None if self._fir is None else self._output.s_out)
         if stop and k_stop == c:
             self._phase = self.T
 
     def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
-        """Periods to the output side, with the window as it stands now."""
-        return self._output.periods(sv, s_prev, limit, self._pieces, self._pstart, self._nurbs, self._events,
-                                    flush=flush)
-
-    def _drop(self, k: int) -> None:
-        """Forget samples before k and the pieces no sample refers to any more."""
-        self._smp = self._smp.tail(k)
-        self._cap, self._reason, self._corner = self._cap[k:], self._reason[k:], self._corner[k:]
-        first = int(self._smp.piece[0]) - self._piece_base
-        if self._fir is not None:  # the filter output lags: keep the pieces it still needs
-            lag = int(np.searchsorted(self._pstart, self._output.s_out, side="right")) - 1
-            first = min(first, max(lag, 0))
-        if first > 0:
-            for i in np.unique(self._pieces.nurbs[:first]):
-                if i >= 0 and i not in set(self._pieces.nurbs[first:].tolist()):
-                    self._nurbs.pop(int(i), None)
-            self._pieces = self._pieces.take(slice(first, None))
-            self._pstart = self._pstart[first:]
-            self._piece_base += first
-
-    def _reset_window(self) -> None:
-        if self._pieces is not None:
-            self._piece_base += len(self._pieces)
-        self._pieces, self._smp = None, None
-        self._pstart = np.zeros(0)
-        self._cap, self._reason, self._corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
-        self._x0 = 0.0
-
+        """Periods to the output side, which reads the window as it stands now."""
+        used = yield from self._output.periods(sv, s_prev, limit, self._win, flush=flush)
+        self._win.take_events(used)
 
 def _finishing_params(cfg: MachineConfig):
     fin = cfg.finishing

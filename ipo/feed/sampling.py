@@ -24,7 +24,11 @@ _NURBS_START_PER_SPAN = 16
 _NURBS_REFINE_ROUNDS = 6
 _END_LEVELS = 4  # samples near each end of a NURBS (nurbs_table)
 ARC_TOL_MM = 1e-7  # arc-length accuracy of the NURBS tables' s(u) (_refine_arc)
-_ARC_REFINE_ROUNDS = 6
+_ARC_REFINE_ROUNDS = 6  # every curve of the corpus and the example programs settles within these
+# a curve that moves unevenly in u (uneven weights) gets more, up to a bounded table
+_ARC_REFINE_ROUNDS_MAX = 64
+_MAX_TABLE_SAMPLES = 50_000
+_CHORD_SLACK_MM = 1e-6  # a chord may exceed the tabled arc by this before the table is refused
 
 
 @dataclass(slots=True)
@@ -128,15 +132,48 @@ def _derivs(e, u: np.ndarray, n: int) -> np.ndarray:
     return nk.curve_derivs(e.degree, e.knots, e.weights, e.points, u, n)
 
 
-def _nurbs_frame(e, u: np.ndarray):
+def _where(u: float, point) -> str:
+    return f"at u = {u:.6g} (X{point[0]:.4f} Y{point[1]:.4f} Z{point[2]:.4f})"
+
+
+def _nurbs_frame(e, u: np.ndarray, points: list | None = None):
+    """|C'(u)|, the unit tangent and the curvature vector; the points too into `points`."""
     d = _derivs(e, u, 2)
     d1, d2 = d[1], d[2]
     speed = np.linalg.norm(d1, axis=1)
-    if np.any(speed <= 0):
-        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
+    if not np.all(speed > 0):
+        k = int(np.flatnonzero(~(speed > 0))[0])
+        w = np.asarray(e.weights, dtype=float)
+        uneven = (f", or weights so uneven ({w.min():g} to {w.max():g}) that it stands still in double precision"
+                  if w.max() > 1e6 * w.min() else "")
+        raise IpoError(NURBS_PATH, f"NURBS has a vanishing derivative {_where(u[k], d[0][k])}: a cusp or "
+                                   f"coincident control points inside the curve{uneven}", e.line)
     t = d1 / speed[:, None]
     kv = (d2 - np.einsum("ij,ij->i", d2, t)[:, None] * t) / (speed**2)[:, None]
+    if points is not None:
+        points.append(d[0])
     return speed, t, kv
+
+
+def _check_resolved(e, u: np.ndarray, points: np.ndarray, ds: np.ndarray) -> None:
+    """Refuse a curve whose table does not hold its path: an interval whose chord is longer than
+    its arc length (arc >= chord, so the table has stepped over a part of the curve that double
+    precision in u cannot resolve: extreme weights), or a length beyond the control polygon's
+    (a rational curve is the limit of corner cutting of its polygon, so it is never longer)."""
+    chord = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    polygon = float(np.sum(np.linalg.norm(np.diff(np.asarray(e.points, dtype=float), axis=0), axis=1)))
+    over = chord - ds - (_CHORD_SLACK_MM + 1e-6 * chord)  # not the rounding of a part's knot insertion
+    total = float(np.sum(ds))
+    w = np.asarray(e.weights, dtype=float)
+    weights = f"its weights range from {w.min():g} to {w.max():g} (a ratio of {w.max() / w.min():.3g})"
+    if not np.all(over <= 0):
+        k = int(np.argmax(np.where(np.isfinite(over), over, np.inf)))
+        raise IpoError(NURBS_PATH, f"NURBS moves too fast in its parameter to be followed {_where(u[k], points[k])}: "
+                                   f"{chord[k]:.4g} mm between u = {u[k]:.17g} and {u[k + 1]:.17g}, more than the "
+                                   f"arc length sampled there; {weights}", e.line)
+    if not total <= polygon * (1 + 1e-6) + _CHORD_SLACK_MM:
+        raise IpoError(NURBS_PATH, f"NURBS cannot be tabled: its sampled length {total:.6g} mm exceeds its "
+                                   f"control polygon's {polygon:.6g} mm; {weights}", e.line)
 
 
 def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) -> NurbsTable:
@@ -163,19 +200,21 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
         ds = 0.5 * (speed[:-1] + speed[1:]) * np.diff(u)
         kmax = np.maximum(np.linalg.norm(kv[:-1], axis=1), np.linalg.norm(kv[1:], axis=1))
         turn = np.maximum(kmax * ds, np.arccos(np.clip(np.einsum("ij,ij->i", t[:-1], t[1:]), -1, 1)))
-        split = np.maximum(np.ceil(turn / MAX_TURN_RAD), np.ceil(ds / MAX_SPACING_MM)).astype(int)
+        split = np.maximum(np.ceil(turn / MAX_TURN_RAD), np.ceil(ds / MAX_SPACING_MM))
+        split = np.where(split <= 64, split, 64).astype(int)  # inf, nan too: _check_resolved says why
         if np.all(split <= 1):
             break
-        split = np.minimum(split, 64)
         extra = [np.linspace(u[i], u[i + 1], split[i] + 1)[1:-1] for i in np.nonzero(split > 1)[0]]
         u = np.unique(np.concatenate([u] + extra))
     if u_fine is None:
         u = _refine_arc(e, u)
     if end_gap_mm > 0:
         u = _with_end_samples(e, u, end_gap_mm)
-    speed, t, kv = _nurbs_frame(e, u)
+    points = []
+    speed, t, kv = _nurbs_frame(e, u, points)
     mid_speed, _, _ = _nurbs_frame(e, 0.5 * (u[:-1] + u[1:]))
     ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
+    _check_resolved(e, u, points[0], ds)
     return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv, end_gap_mm)
 
 
@@ -185,7 +224,7 @@ def _refine_arc(e, u: np.ndarray) -> np.ndarray:
     stepper's arc position back through s(u) and corrects the difference: an error there
     becomes a real path error, which in a tight turn rotates with the tangent (an
     acceleration of error * kappa^2 v^2, 60 mm/s^2 per 0.1 um at kappa = 500/mm, 1.5 mm/s)."""
-    for _ in range(_ARC_REFINE_ROUNDS):
+    for _ in range(_ARC_REFINE_ROUNDS_MAX):
         h = np.diff(u)
         q = u[:-1, None] + h[:, None] * np.array([0.25, 0.5, 0.75])
         sp = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
@@ -193,11 +232,21 @@ def _refine_arc(e, u: np.ndarray) -> np.ndarray:
         left = h / 12 * (sp[:-1] + 4 * sq[:, 0] + sq[:, 1])
         right = h / 12 * (sq[:, 1] + 4 * sq[:, 2] + sp[1:])
         hermite = 0.5 * (left + right) + h / 8 * (sp[:-1] - sp[1:])  # s_of_u at the midpoint
-        bad = np.abs(hermite - left) > ARC_TOL_MM
+        bad = ~(np.abs(hermite - left) <= ARC_TOL_MM)
         if not bad.any():
-            break
-        u = np.unique(np.concatenate([u, q[bad, 1]]))
-    return u
+            return u
+        halves = q[bad, 1]
+        if len(u) + len(halves) > _MAX_TABLE_SAMPLES or np.any((halves <= u[:-1][bad]) | (halves >= u[1:][bad])):
+            break  # too many samples, or an interval double precision cannot halve
+        u = np.unique(np.concatenate([u, halves]))
+    # a curve whose s(u) does not settle moves too unevenly in u (extreme weights) for the
+    # table, and so the steppers, to hold it
+    k = int(np.flatnonzero(bad)[0])
+    w = np.asarray(e.weights, dtype=float)
+    raise IpoError(NURBS_PATH, f"NURBS moves too unevenly in its parameter to be followed "
+                               f"{_where(u[k], _derivs(e, u[k:k + 1], 0)[0][0])}: its arc length does not "
+                               f"settle to {ARC_TOL_MM:g} mm there within {len(u)} samples; its weights "
+                               f"range from {w.min():g} to {w.max():g} (a ratio of {w.max() / w.min():.3g})", e.line)
 
 
 def _with_end_samples(e, u: np.ndarray, gap_mm: float) -> np.ndarray:

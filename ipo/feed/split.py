@@ -12,9 +12,15 @@ blend within P under G64. A C0 knot whose tangents agree stays inside its part a
 crossed at speed, its parametrisation evened out (even_speed). Parts whose control points
 all coincide (a repeated point of a polyline) have no length and are dropped.
 
-Left out: a cusp where the derivative vanishes (p coincident control points inside a curve
-of degree >= 2, or a repeated point next to a C0 knot) is not cut; the NURBS table rejects it
-with its "vanishing derivative" error, as before.
+A part whose derivative vanishes at an end (its first or last control points coincide, as
+in LinuxCNC's G5.2 when the program repeats the current position as the first point) has a
+tangent there only as a limit, which the steppers cannot start from: the END_TRIM_MM of the
+curve at that end is machined as the straight chord to the rest of it (a deviation far
+below any BLU, in the direction of the limit tangent), and the rest as a NURBS.
+
+Left out: a cusp where the derivative vanishes inside a curve (p coincident control points of
+a curve of degree >= 2) is not cut; the NURBS table rejects it with its "vanishing derivative"
+error (E-NURBS-PATH), saying where.
 """
 from __future__ import annotations
 
@@ -24,6 +30,7 @@ import numpy as np
 
 from ipo.errors import IpoError
 from ipo.feed.sampling import nurbs_table
+from ipo.nurbs.kernel import curve_points
 from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import Line, Nurbs
 
@@ -31,6 +38,8 @@ from ipr.entities import Line, Nurbs
 # corners next to NURBS are crossed as they are, so cutting there would change nothing)
 CORNER_MIN_RAD = 1e-4
 _SAME_POINT_MM = 1e-12  # control points closer than this are the same point
+# length of a stalled end machined as a chord (a hundredth of the finest BLU the machine file allows)
+END_TRIM_MM = 1e-8
 
 
 def _c0_firsts(p: int, knots: np.ndarray) -> np.ndarray:
@@ -100,20 +109,56 @@ def corner_parts(e: Nurbs) -> list[Nurbs | Line]:
     e = even_speed(e)
     cuts = corner_knots(e)
     if len(cuts) == 0:
-        return [e]
+        return _with_moving_ends(e)
     bounds = np.concatenate([[e.knots[0]], cuts, [e.knots[-1]]])
     parts = [sub_curve(e, float(a), float(b)) for a, b in zip(bounds[:-1], bounds[1:])]
-    return [Line(e.line, q.start, q.end, e.feed_mm_s, e.path) if len(q.points) == 2 else q
-            for q in parts if np.ptp(q.points, axis=0).max() > _SAME_POINT_MM]
+    return [r for q in parts if np.ptp(q.points, axis=0).max() > _SAME_POINT_MM
+            for r in ([Line(e.line, q.start, q.end, e.feed_mm_s, e.path)] if len(q.points) == 2
+                      else _with_moving_ends(q))]
 
 
-def planning_problem(e: Nurbs) -> str | None:
-    """Why the feed stage cannot walk e, or None: its parts' arc-length tables are what it
-    builds first, so a controller that checks them before moving never stops mid-program."""
+def _trim_u(e: Nurbs, at_start: bool) -> float:
+    """The parameter END_TRIM_MM (as a chord) from e's start or end: bisection on the chord,
+    which grows from 0 there (the first or last points coincide, so no nearer point returns)."""
+    knots = np.asarray(e.knots, dtype=float)
+    u_end = float(knots[0] if at_start else knots[-1])
+    end_point = np.asarray(e.points[0 if at_start else -1], dtype=float)
+    near, far = u_end, float(knots[-1] if at_start else knots[0])
+    for _ in range(200):
+        mid = 0.5 * (near + far)
+        if mid in (near, far):
+            break
+        chord = np.linalg.norm(curve_points(e.degree, knots, e.weights, e.points, np.array([mid]))[0] - end_point)
+        near, far = (mid, far) if chord < END_TRIM_MM else (near, mid)
+    return far
+
+
+def _with_moving_ends(e: Nurbs) -> list[Nurbs | Line]:
+    """e, with each end where its derivative vanishes (module docstring) machined as a chord."""
+    pts = np.asarray(e.points, dtype=float)
+    stalled_start = e.degree >= 2 and np.linalg.norm(pts[1] - pts[0]) <= _SAME_POINT_MM
+    stalled_end = e.degree >= 2 and np.linalg.norm(pts[-1] - pts[-2]) <= _SAME_POINT_MM
+    if not (stalled_start or stalled_end):
+        return [e]
+    u0, u1 = float(e.knots[0]), float(e.knots[-1])
+    a = _trim_u(e, True) if stalled_start else u0
+    b = _trim_u(e, False) if stalled_end else u1
+    if not a < b:
+        return [Line(e.line, e.start, e.end, e.feed_mm_s, e.path)]  # all of it within END_TRIM_MM
+    body = sub_curve(e, a, b)
+    head = [Line(e.line, e.start, body.start, e.feed_mm_s, e.path)] if stalled_start else []
+    tail = [Line(e.line, body.end, e.end, e.feed_mm_s, e.path)] if stalled_end else []
+    return head + [body] + tail
+
+
+def planning_problem(e: Nurbs, end_gap_mm: float = 0.0) -> str | None:
+    """Why the feed stage cannot walk e, or None: its parts' arc-length tables (with the
+    planner's end gap, ipo.feed.planner.nurbs_end_gap_mm) are what it builds first, so a
+    controller that checks them before moving never stops mid-program."""
     try:
         for part in corner_parts(e):
             if isinstance(part, Nurbs):
-                nurbs_table(part)
+                nurbs_table(part, end_gap_mm)
     except IpoError as err:
         return err.message
     return None

@@ -45,11 +45,7 @@ def _length_mm(line: StreamLine) -> float:
 
 
 def _feed_mm_s(line: StreamLine) -> float | None:
-    if line.arc is not None:
-        return line.arc[3] / 60.0
-    if line.text.startswith("G1") and "F" in line.text:
-        return float(line.text.rsplit("F", 1)[1]) / 60.0
-    return None
+    return None if line.feed_mm_min is None else line.feed_mm_min / 60.0
 
 
 def stream_demand(lines: Sequence[StreamLine], *, baud: int, planner_blocks: int,

@@ -24,7 +24,7 @@ class LedgerError(RuntimeError):
 
 @dataclass(slots=True)
 class Fault:
-    kind: str  # "error", "alarm", "disconnected", "stalled"
+    kind: str  # "error", "alarm", "stopped" (asked for), "disconnected", "stalled"
     message: str
     seq: int  # the stream line concerned (0 when none)
     source_line: int
@@ -33,8 +33,9 @@ class Fault:
 class Ledger:
     """Sent/answered state of stream lines `first`.. (1-based seq numbers)."""
 
-    def __init__(self, first: int = 1):
+    def __init__(self, first: int = 1, journal=None):
         self.first = first
+        self.journal = journal  # machine.grbl.journal.Journal: every event also goes to disk
         self._state = array("B")
         self._sends = array("B")
         self._error = {}
@@ -63,6 +64,8 @@ class Ledger:
                 raise LedgerError(f"line {seq} sent before line {seq - 1}")
             self._sends[i] = 1
             self._state[i] = SENT
+            if self.journal:
+                self.journal.event(f"S {seq}")
         self._waiting.append((seq, n_bytes))
 
     def answered(self, ok: bool, code: int = 0) -> tuple[int, int]:
@@ -76,6 +79,8 @@ class Ledger:
             self._state[seq - self.first] = OK if ok else ERROR
             if not ok:
                 self._error[seq] = code
+            if self.journal:
+                self.journal.event(f"A {seq} {'ok' if ok else f'E{code}'}")
         return seq, n
 
     def discard_waiting(self) -> list[int]:
@@ -86,6 +91,8 @@ class Ledger:
             if seq:
                 self._state[seq - self.first] = DISCARDED
                 gone.append(seq)
+                if self.journal:
+                    self.journal.event(f"D {seq}")
         return gone
 
     @property

@@ -25,6 +25,13 @@ FEED_OV_PLUS_10 = b"\x91"
 FEED_OV_MINUS_10 = b"\x92"
 FEED_OV_PLUS_1 = b"\x93"
 FEED_OV_MINUS_1 = b"\x94"
+JOG_CANCEL = b"\x85"
+RAPID_OV_RESET = b"\x95"
+RAPID_OV_50 = b"\x96"
+RAPID_OV_25 = b"\x97"
+SPINDLE_OV_RESET = b"\x99"
+SPINDLE_OV_PLUS_10 = b"\x9a"
+SPINDLE_OV_MINUS_10 = b"\x9b"
 REALTIME_BYTES = frozenset(b"?!~\x18") | frozenset(range(0x80, 0x100))
 
 BANNER_RE = re.compile(r"^Grbl (\d+\.\d+[a-z]?) \['\$' for help\]")

@@ -1,0 +1,44 @@
+"""The NURBS drivers one build of pieces makes or trims, kept apart from the window's own.
+
+ipo.feed.pieces.build reads the drivers of the curves it joins (their arc-length tables)
+and, at G64 corners, trims a curve (its driver replaced by the one of the remaining part,
+or dropped when nothing is left) or adds a blend curve with a new driver. It records all
+of that here, over a read-only view of the window's drivers; the planner then applies the
+changes to its window (ipo.feed.window.Window.apply).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+
+class DriverChanges:
+    """A mapping NURBS index -> driver: the window's drivers with this build's changes on top."""
+
+    def __init__(self, drivers: Mapping, next_index: int, make_driver: Callable):
+        self._base = drivers
+        self._next = next_index  # the index the first new blend gets
+        self._make = make_driver  # Nurbs -> its driver (a pure factory)
+        self.changed: dict = {}  # index -> new driver, or None where a curve was trimmed away
+        self.added = 0  # blends added, indices next_index..next_index + added - 1
+
+    def __getitem__(self, k: int):
+        if k in self.changed:
+            drv = self.changed[k]
+            if drv is None:
+                raise KeyError(k)
+            return drv
+        return self._base[k]
+
+    def __setitem__(self, k: int, drv) -> None:
+        self.changed[k] = drv
+
+    def __delitem__(self, k: int) -> None:
+        self[k]  # a KeyError for a curve that is not there, as a dict's del
+        self.changed[k] = None
+
+    def add(self, entity) -> int:
+        """A new blend curve: its index, with its driver made."""
+        idx = self._next + self.added
+        self.added += 1
+        self.changed[idx] = self._make(entity)
+        return idx

@@ -1,0 +1,122 @@
+"""The look-ahead window: what the planner has read but not yet emitted, under one owner.
+
+The window holds the path pieces built so far and where each starts, the NURBS drivers
+those pieces walk, the samples with their caps on v^2 (and reasons, and corner flags), and
+the events waiting for the machine to reach their place on the path. The planner
+(ipo.feed.planner) owns one window: it appends pieces, applies the drivers a build made
+(ipo.feed.pieces.build returns them), and drops what has been emitted. The output side
+(ipo.feed.emission) only reads it.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.feed.pieces import Pieces
+from ipo.feed.sampling import Samples
+
+Caps = Callable[[Samples, Pieces], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+
+class Window:
+    """Pieces, drivers, samples with caps, and pending events between intake and emission."""
+
+    def __init__(self):
+        self.pieces: Pieces | None = None
+        self.piece_base = 0  # global index of pieces[0]
+        self.pstart = np.zeros(0)  # global arc length where each held piece starts
+        self.samples: Samples | None = None
+        self.cap = np.zeros(0)  # v^2 cap at each sample
+        self.reason = np.zeros(0, np.int8)  # the LIMIT_* code of each cap
+        self.corner = np.zeros(0, bool)  # a sample at an unblended corner
+        self.x0_v2 = 0.0  # v^2 at the first held sample
+        self.s_end_mm = 0.0  # arc length at the end of everything built
+        self.drivers: dict[int, NurbsDriver] = {}  # NURBS index -> driver
+        self.n_drivers = 0  # NURBS indices handed out so far
+        self.events: list[tuple[float, object]] = []  # (arc length, event), in path order
+
+    def add_driver(self, driver: NurbsDriver) -> int:
+        idx = self.n_drivers
+        self.n_drivers += 1
+        self.drivers[idx] = driver
+        return idx
+
+    def apply(self, changes: dict[int, NurbsDriver | None], n_new: int) -> None:
+        """A build's drivers: new blends (indices n_drivers..n_drivers + n_new - 1), trimmed
+        curves (replaced) and curves trimmed away (None: dropped)."""
+        for k, drv in changes.items():
+            if drv is None:
+                self.drivers.pop(k, None)
+            else:
+                self.drivers[k] = drv
+        self.n_drivers += n_new
+
+    def append(self, pc: Pieces, smp: Samples, caps: Caps) -> None:
+        """New pieces and their samples (global piece indices from 0 within pc), capped."""
+        if self.pieces is None:
+            base = self.piece_base
+            self.pieces = pc
+            self.pstart = self.s_end_mm + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
+        else:
+            base = self.piece_base + len(self.pieces)
+            self.pieces = Pieces.concat([self.pieces, pc])
+            self.pstart = np.concatenate([self.pstart, self.s_end_mm + np.concatenate(
+                [[0.0], np.cumsum(pc.length)[:-1]])])
+        smp.piece += base
+        local = self.pieces
+        if self.samples is None:
+            self.samples = smp
+            self.cap, self.reason, self.corner = caps(self._relative(smp), local)
+        else:
+            # the last two held samples are capped again: a corner where the windows join
+            # also caps the sample before it (limits.CORNER_SHARE)
+            j = min(2, len(self.samples))
+            joined = Samples.concat([self.samples.tail(len(self.samples) - j), smp])
+            cap, reason, corner = caps(self._relative(joined), local)
+            lower = cap[:j] < self.cap[-j:]
+            self.cap[-j:] = np.where(lower, cap[:j], self.cap[-j:])
+            self.reason[-j:] = np.where(lower, reason[:j], self.reason[-j:])
+            self.corner[-j:] |= corner[:j]
+            self.samples = Samples.concat([self.samples, smp])
+            self.cap = np.concatenate([self.cap, cap[j:]])
+            self.reason = np.concatenate([self.reason, reason[j:]])
+            self.corner = np.concatenate([self.corner, corner[j:]])
+        self.s_end_mm += float(pc.length.sum())
+
+    def _relative(self, smp: Samples) -> Samples:
+        return Samples(smp.s, smp.t, smp.kv, smp.piece - self.piece_base, smp.sigma)
+
+    def local(self, global_piece: np.ndarray) -> np.ndarray:
+        return global_piece - self.piece_base
+
+    def drop(self, k: int, s_out_mm: float | None) -> None:
+        """Forget samples before k and the pieces no sample refers to any more; with
+        s_out_mm (S-curve mode: the filter's output lags) keep the pieces from there on."""
+        self.samples = self.samples.tail(k)
+        self.cap, self.reason, self.corner = self.cap[k:], self.reason[k:], self.corner[k:]
+        first = int(self.samples.piece[0]) - self.piece_base
+        if s_out_mm is not None:
+            lag = int(np.searchsorted(self.pstart, s_out_mm, side="right")) - 1
+            first = min(first, max(lag, 0))
+        if first > 0:
+            for i in np.unique(self.pieces.nurbs[:first]):
+                if i >= 0 and i not in set(self.pieces.nurbs[first:].tolist()):
+                    self.drivers.pop(int(i), None)
+            self.pieces = self.pieces.take(slice(first, None))
+            self.pstart = self.pstart[first:]
+            self.piece_base += first
+
+    def reset(self) -> None:
+        """At a stop with everything emitted: no pieces or samples held."""
+        if self.pieces is not None:
+            self.piece_base += len(self.pieces)
+        self.pieces, self.samples = None, None
+        self.pstart = np.zeros(0)
+        self.cap, self.reason, self.corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
+        self.x0_v2 = 0.0
+
+    def take_events(self, n: int) -> None:
+        """The first n events have been put out."""
+        del self.events[:n]
