@@ -109,7 +109,7 @@ def test_short_runs_and_other_blocks_stay_unchanged():
     src = "G21 G90\nG0 X0 Y0 Z0\nG1 X1 F100\nX2 Y0.1\nX3 Y0.3\n#1=2\nG1 X[#1*2] Y1\nG2 X6 Y1 I1 J0\nM2\n"
     out, rep = convert_text(src, 0.01)
     assert out == src
-    assert rep.groups == 0 and rep.chains == 1
+    assert rep.groups == 0 and rep.chains == 2  # G1 X1..X3, and G1 X[#1*2] with the G2 arc
 
 
 def test_runs_break_at_feed_changes_and_corners():

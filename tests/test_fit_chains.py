@@ -83,7 +83,7 @@ def _both_ways(before, after) -> float:
     return float(max(forward.max(), backward.max()))
 
 
-def _random_corner_program(seed: int, n_pieces: int = 24) -> tuple[str, list[tuple[np.ndarray, float]]]:
+def _random_corner_program(seed: int, n_pieces: int = 16) -> tuple[str, list[tuple[np.ndarray, float]]]:
     """A planar path of smooth stretches (polylined arcs of random radius) meeting at corners that turn
     by every angle from 0 to 170 degrees, written to 4 decimals; and each corner's vertex and turn."""
     rng = np.random.default_rng(seed)
@@ -109,7 +109,7 @@ def _random_corner_program(seed: int, n_pieces: int = 24) -> tuple[str, list[tup
     return text, corners[1:]
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("seed", [1, 2])
 def test_random_corners_within_tolerance_both_ways_and_sharp_ones_exact(seed):
     tol = 0.01
     src, corners = _random_corner_program(seed)
@@ -191,3 +191,28 @@ def test_corpus_chains_within_tolerance(name):
     before, after = parse_text(text).entities, parse_text(out).entities
     assert rep.groups >= 1
     assert _both_ways(before, after) <= 0.01 * 1.001
+
+
+def test_g5_2_output_parses_in_vcnc_and_in_linuxcnc_rs274(tmp_path):
+    from rs274 import run_rs274
+
+    src, _ = _random_corner_program(2, n_pieces=10)
+    out, rep = convert_text(src, 0.01, jobs=1, dialect="g5.2")
+    assert rep.groups >= 3 and out.count("G5.2") == rep.groups == out.count("G5.3")
+    before, after = parse_text(src).entities, parse_text(out).entities
+    assert _both_ways(before, after) <= 0.01 * 1.001
+    path = tmp_path / "fitted.ngc"
+    path.write_text(out)
+    canon = run_rs274(path)
+    assert canon.count("NURBS_FEED(") == rep.groups
+    # the control-point counts rs274 read are the ones vcnc read
+    counts = [int(line.split("NURBS_FEED(")[1].split(",")[0]) for line in canon.splitlines() if "NURBS_FEED(" in line]
+    assert counts == [len(e.points) for e in after if isinstance(e, Nurbs)]
+
+
+def test_g5_2_leaves_paths_that_leave_the_xy_plane():
+    words = [f"X{0.5 * i:.4f} Y{np.sin(0.1 * i):.4f} Z{0.01 * i:.4f}" for i in range(1, 60)]
+    src = "\n".join(["G21 G90 G17", "G0 X0 Y0 Z0", f"G1 {words[0]} F1000", *words[1:], "M2", ""])
+    out, rep = convert_text(src, 0.01, jobs=1, dialect="g5.2")
+    assert out == src and rep.groups == 0
+    assert "XY plane" in rep.kept_g01[0][1]

@@ -31,6 +31,7 @@ from ipr.interpreter import Interpreter
 
 PURE_LETTERS = frozenset("NGXYZIJKRF")
 PURE_G = frozenset({1.0, 2.0, 3.0})
+DIALECTS = ("g06.2", "g5.2")
 AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
@@ -46,6 +47,7 @@ class Frame:
     unit_mm: float
     absolute: bool
     offset_mm: tuple[float, float, float]
+    plane: str = "XY"
 
 
 @dataclass(slots=True)
@@ -99,7 +101,7 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
             counts[n] = len(out)
             if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
-                frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset))
+                frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane)
             entities.extend(out)
             out.clear()
         if interp.done:
@@ -149,9 +151,9 @@ def _with_motion(text: str, code: str) -> str | None:
     return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
 
 
-def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
-    """Fanuc G06.2 blocks for `fit` (points in machine mm) and the curve exactly as written."""
-    p = fit.degree
+def _written(fit: RationalFit, frame: Frame, digits: int) -> tuple[list[list[str]], np.ndarray]:
+    """The axis words of control points 1.. (absolute or, in G91, relative to the previous one; the
+    last one as exact as the source's own number) and every control point as these words put it."""
     unit, off = frame.unit_mm, np.array(frame.offset_mm)
     start = fit.points[0]
     step = 10 ** (END_DIGITS - digits)
@@ -162,13 +164,24 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
     nano[1:-1] = np.rint(nano[1:-1] / step).astype(np.int64) * step
     words = nano[1:] if frame.absolute else np.diff(nano, axis=0)
     written = [[fmt(v / 10**END_DIGITS, END_DIGITS) for v in row] for row in words]
+    values = np.array([[float(v) for v in row] for row in written])
+    pts = np.empty_like(fit.points)
+    pts[0] = start
+    pts[1:] = values * unit + off if frame.absolute else start + np.cumsum(values, axis=0) * unit
+    return written, pts
+
+
+def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
+    """Fanuc G06.2 blocks for `fit` (points in machine mm) and the curve exactly as written."""
+    p = fit.degree
+    written, pts = _written(fit, frame, digits)
     weights = np.round(fit.weights, WEIGHT_DIGITS)
     knots = fit.knots
 
     def r_word(i):
         return "" if weights[i] == 1.0 else f" R{fmt(weights[i], WEIGHT_DIGITS)}"
 
-    out = [f"G06.2 P{p + 1} K{fmt(knots[0], 6)}{r_word(0)} F{fmt(feed_mm_s * 60.0 / unit, 6)}"]
+    out = [f"G06.2 P{p + 1} K{fmt(knots[0], 6)}{r_word(0)} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)}"]
     prev = None
     for i, vals in enumerate(written, 1):
         axes = "".join(f" {a}{v}" for a, v, pv in zip("XYZ", vals, prev or (None,) * 3)
@@ -176,19 +189,38 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
         out.append(f"K{fmt(knots[i], 6)}{axes}{r_word(i)}")
         prev = vals
     out += [f"K{fmt(k, 6)}" for k in knots[len(fit.points):]]
-    values = np.array([[float(v) for v in row] for row in written])
-    pts = np.empty_like(fit.points)
-    pts[0] = start
-    pts[1:] = values * unit + off if frame.absolute else start + np.cumsum(values, axis=0) * unit
+    return out, replace(fit, points=pts, weights=weights)
+
+
+def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
+    """LinuxCNC G5.2 blocks (XY plane, one Z) for a fit on uniform knots, and the curve as written.
+
+    G5.2 takes the current position as control point 0 with weight 1 and makes its own uniform
+    knots (ipr.nurbs_groups.g5_knots: 001's uniform_knots scaled), so the weights are scaled to
+    w_0 = 1 (the curve is the same) and no knot is written: m control points cost m - 1 blocks
+    and the closing G5.3."""
+    written, pts = _written(fit, frame, digits)
+    weights = np.round(fit.weights / fit.weights[0], WEIGHT_DIGITS)
+    weights[0] = 1.0
+    out = []
+    for i, vals in enumerate(written, 1):
+        head = f"G5.2 L{fit.degree + 1} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)} " if i == 1 else ""
+        out.append(f"{head}X{vals[0]} Y{vals[1]} P{fmt(weights[i], WEIGHT_DIGITS)}")
+    out.append("G5.3")
+    pts[:, 2] = fit.points[0, 2]
     return out, replace(fit, points=pts, weights=weights)
 
 
 def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float = DEFAULT_CORNER_DEG,
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
-                 accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0) -> tuple[str, ConvertReport]:
+                 accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0,
+                 dialect: str = "g06.2") -> tuple[str, ConvertReport]:
     """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes
     for the fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the
-    sharp-corner test of ipo.fit.chains)."""
+    sharp-corner test of ipo.fit.chains; dialect: "g06.2" (Fanuc, 3-D, knots written, groups
+    through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece))."""
+    if dialect not in DIALECTS:
+        raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
         raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
     if not 1 <= degree <= 5:
@@ -207,11 +239,17 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     after: dict[int, list[str]] = {}  # source line -> blocks written after it
     t0 = time.perf_counter()
     chains = [c for c in split_chains(entities, tol_mm, joinable) if c.moves[0].line in pure]
+    if dialect == "g5.2":  # LinuxCNC's G5.2 lies in the XY plane and cannot move Z
+        flat = [frames[c.moves[0].line].plane == "XY" and np.ptp(c.points[:, 2]) == 0.0 for c in chains]
+        report.kept_g01 += [(c.moves[0].line, "not in the XY plane at one Z (G5.2)")
+                            for c, ok in zip(chains, flat) if not ok]
+        chains = [c for c, ok in zip(chains, flat) if ok]
     report.chains = len(chains)
-    options = [_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s)
-               for c in chains]
+    options = [replace(_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s),
+                       joins=dialect == "g06.2") for c in chains]
     for chain, spans in zip(chains, _plan_all(chains, options, jobs)):
-        new, last_is_group = _convert_chain(chain, spans, lines, frames[chain.moves[0].line], tol_mm, report)
+        new, last_is_group = _convert_chain(chain, spans, lines, frames[chain.moves[0].line], tol_mm, report,
+                                            g52_text if dialect == "g5.2" else group_text)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
@@ -265,14 +303,14 @@ def _plan_all(chains: list[Chain], options: list[FitOptions], jobs: int | None) 
 
 
 def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Frame, tol_mm: float,
-                   report: ConvertReport) -> tuple[list[str] | None, bool]:
+                   report: ConvertReport, writer) -> tuple[list[str] | None, bool]:
     """New text for one chain from its spans (None if it stays as it is), and whether it ends in a group."""
     digits = coordinate_digits(tol_mm, frame.unit_mm)
     out: list[str] = []
     after_group = any_group = False
     for span in spans:
         moves = chain.moves[span.first:span.last]
-        group = _group_for(span, moves, frame, digits, tol_mm, chain.sag_mm, report) \
+        group = _group_for(span, moves, frame, digits, tol_mm, chain.sag_mm, report, writer) \
             if span.fit is not None else None
         if group is None:
             src = [lines[m.line - 1] for m in moves]
@@ -295,8 +333,8 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
     return out, after_group
 
 
-def _group_for(span: Span, moves, frame, digits, tol_mm, sag_mm, report) -> list[str] | None:
-    text, written = group_text(span.fit, moves[0].feed_mm_s, frame, digits)
+def _group_for(span: Span, moves, frame, digits, tol_mm, sag_mm, report, writer) -> list[str] | None:
+    text, written = writer(span.fit, moves[0].feed_mm_s, frame, digits)
     dev = max_deviation(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
     if dev > tol_mm:
         report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))

@@ -37,6 +37,7 @@ class FitOptions:
     accel_mm_s2: float  # the machine's smallest axis acceleration: the sharp-corner test
     max_feed_mm_s: float
     corner_deg: float
+    joins: bool = True  # pieces may share a group (G06.2); False: each fitted piece is its own (G5.2)
 
 
 @dataclass(frozen=True, slots=True)
@@ -165,6 +166,9 @@ def plan_chain(chain: Chain, opt: FitOptions) -> list[Span]:
     pieces = []
     for first, last in zip(cuts[:-1], cuts[1:]):
         pieces += _pieces(chain, first, last, opt)
+    if not opt.joins:  # G5.2: m control points cost m blocks (m - 1 and G5.3), no knots, no joints
+        return [Span(f, l, found[0], found[1], found[2]) if found and len(found[0].points) < l - f else Span(f, l)
+                for f, l, found, _ in pieces]
     overhead = group_overhead(p)
     # dynamic programme: the fewest blocks up to each piece, ending outside / inside a group
     inf = float("inf")

@@ -17,17 +17,18 @@ import click
 from machine.commands import INPUT_FILE, OutputPath
 
 
-def format_report(rep, tol_mm: float) -> str:
+def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
     ratio_blocks = rep.blocks_before / max(rep.blocks_after, 1)
     ratio_bytes = rep.bytes_before / max(rep.bytes_after, 1)
     lines = [
         f"tolerance        {tol_mm * 1e3:.3f} um (both ways, on the curves as written)",
         f"chains           {rep.chains} (G1/G2/G3 moves without a break; corners do not break them)",
-        f"G06.2 groups     {rep.groups} replacing {rep.moves_replaced} moves;"
-        f" {rep.sharp_corners} corners kept sharp inside them",
-        f"kept as written  {len(rep.kept_g01)} pieces (no group saves blocks there)",
+        f"{dialect.upper() + ' groups':16s} {rep.groups} replacing {rep.moves_replaced} moves;"
+        f" {rep.sharp_corners} corners kept sharp inside them (knots of multiplicity = degree)",
+        f"kept as written  {len(rep.kept_g01)} pieces",
         f"blocks           {rep.blocks_before} -> {rep.blocks_after}  ({ratio_blocks:.2f}x fewer;"
-        " G06.2 counted as one block per control point plus its closing knot blocks)",
+        " a group counted as written: a block per control point, plus the closing knot blocks of G06.2"
+        " or the G5.3 of G5.2)",
         f"bytes            {rep.bytes_before} -> {rep.bytes_after}  ({ratio_bytes:.2f}x fewer)",
         f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um",
         f"fit time         {rep.fit_time_s:.2f} s",
@@ -50,12 +51,15 @@ def format_report(rep, tol_mm: float) -> str:
               help="A turn sharper than this between two moves ends a run.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None,
               help="Worker processes for the fits  [default: one per core].")
+@click.option("--dialect", type=click.Choice(["g06.2", "g5.2"]), default="g06.2", show_default=True,
+              help="g06.2: Fanuc G06.2 groups (3-D, knots written, through corners); g5.2: LinuxCNC G5.2/G5.3 "
+                   "(XY plane at one Z, uniform knots, no knot blocks).")
 @click.option("--compare", "gains", is_flag=True,
               help="Also run both programs in vcnc's controller and print cycle time and feed fluctuation.")
 @click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
-def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None, gains: bool,
-            machine: str | None) -> None:
+def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None, dialect: str,
+            gains: bool, machine: str | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
@@ -77,14 +81,14 @@ def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, j
         text = f.read().decode("utf-8", "replace")
     try:
         result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
-                                      accel_mm_s2=accel, max_feed_mm_s=vmax)
+                                      accel_mm_s2=accel, max_feed_mm_s=vmax, dialect=dialect)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)
     with open(out, "w", encoding="utf-8", newline="") as f:
         f.write(result)
     click.echo(f"{src} -> {out}")
-    click.echo(format_report(report, tol_mm))
+    click.echo(format_report(report, tol_mm, dialect))
     if gains:
         from machine.commands.compare import compare_programs, format_table
 
