@@ -4,9 +4,10 @@ across the passes and the roughness and facets along them.
 Profiles are rows (along X) or columns (along Y) of the Z-map. Along the feed, a profile is measured as
 its deviation from the reference when there is one (the form removed exactly), else from its mean line,
 the ISO 16610-21 Gaussian filter with cut-off CUTOFF_MM (2.5 mm, ISO 4288's for Ra 2-10 um: longer than
-the chords of a finishing program, so facets stay in the roughness). Rz is the profile's peak-to-valley, Ra its mean absolute deviation
+the chords of a finishing program, so facets stay in the roughness; a fifth of the profile where it is
+shorter than ISO's five cut-offs). Rz is the profile's peak-to-valley, Ra its mean absolute deviation
 from its mean. Facets are the arches between consecutive valleys of the deviation (the tool's path has a
-vertex over each valley): spacing is the valleys' median distance, depth the median height of each arch
+vertex over each valley; a valley must stand out by FACET_PROMINENCE of the profile's Rz): spacing is the valleys' median distance, depth the median height of each arch
 above the line joining its two valleys. The scallop across the passes is measured the same way on a
 profile across them, and set beside the classical cusp h = r - sqrt(r^2 - (s/2)^2).
 """
@@ -20,7 +21,8 @@ from scipy.signal import find_peaks
 
 from machine.workpiece.zmap import Surface
 
-NOISE_FLOOR_MM = 2e-5  # 0.02 um: arches lower than this are float32 and BLU noise, not facets
+NOISE_FLOOR_MM = 2e-5  # 0.02 um: arches lower than this are float32 noise, not facets
+FACET_PROMINENCE = 0.5  # a facet's valleys stand out by half the profile's Rz: BLU ripple does not split it
 CUTOFF_MM = 2.5
 GAUSS_ALPHA = math.sqrt(math.log(2.0) / math.pi)  # ISO 16610-21 weighting function
 
@@ -59,26 +61,32 @@ def detrend(s_mm: np.ndarray, d_mm: np.ndarray) -> np.ndarray:
     if len(s_mm) < 3:
         return d_mm - d_mm.mean()
     step = float(s_mm[1] - s_mm[0])
-    sigma = GAUSS_ALPHA * CUTOFF_MM / math.sqrt(2.0 * math.pi) / step
+    cutoff = min(CUTOFF_MM, (s_mm[-1] - s_mm[0]) / 5.0)
+    sigma = GAUSS_ALPHA * cutoff / math.sqrt(2.0 * math.pi) / step
     r = d_mm - gaussian_filter1d(d_mm, sigma, mode="nearest")
-    return np.where((s_mm >= s_mm[0] + CUTOFF_MM) & (s_mm <= s_mm[-1] - CUTOFF_MM), r, np.nan)
+    return np.where((s_mm >= s_mm[0] + cutoff) & (s_mm <= s_mm[-1] - cutoff), r, np.nan)
 
 
-def facets(s_mm: np.ndarray, d_mm: np.ndarray, floor_mm: float = NOISE_FLOOR_MM):
-    """Valley positions, and each arch's height above the chord of its valleys (module docstring)."""
-    valleys, _ = find_peaks(-d_mm, prominence=floor_mm)
+def facets(s_mm: np.ndarray, d_mm: np.ndarray, arch_mm: np.ndarray | None = None,
+           floor_mm: float = NOISE_FLOOR_MM):
+    """Valley positions in d_mm, and each arch's height above the chord of its valleys (module docstring),
+    measured on arch_mm (default d_mm): the undetrended profile, so a mean line does not flatten the arches."""
+    if len(d_mm) < 3:
+        return s_mm[:0], np.zeros(0)
+    arch = d_mm if arch_mm is None else arch_mm
+    valleys, _ = find_peaks(-d_mm, prominence=max(floor_mm, FACET_PROMINENCE * float(np.ptp(d_mm))))
     depths = []
     for a, b in zip(valleys[:-1], valleys[1:]):
-        chord = np.interp(s_mm[a:b + 1], [s_mm[a], s_mm[b]], [d_mm[a], d_mm[b]])
-        depths.append(float(np.max(d_mm[a:b + 1] - chord)))
+        chord = np.interp(s_mm[a:b + 1], [s_mm[a], s_mm[b]], [arch[a], arch[b]])
+        depths.append(float(np.max(arch[a:b + 1] - chord)))
     return s_mm[valleys], np.array(depths)
 
 
 def profile_figures(s_mm: np.ndarray, d_mm: np.ndarray, *, form_removed: bool) -> ProfileFigures:
     r = d_mm if form_removed else detrend(s_mm, d_mm)
     keep = np.isfinite(r)
-    s_mm, r = s_mm[keep], r[keep]
-    at, depth = facets(s_mm, r)
+    s_mm, r, d_mm = s_mm[keep], r[keep], d_mm[keep]
+    at, depth = facets(s_mm, r, d_mm)
     return ProfileFigures(
         length_mm=float(np.ptp(s_mm)) if len(s_mm) else 0.0,
         rz_um=float(np.ptp(r) * 1e3) if len(r) else 0.0,
