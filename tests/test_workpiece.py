@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -167,3 +169,24 @@ def test_run_writes_the_surface_files(tmp_path):
     assert bad.exit_code == 2 and "six" in bad.output
     no_stock = CliRunner().invoke(main, ["run", str(prog), "--surface", str(out)])
     assert no_stock.exit_code == 2 and "no stock" in no_stock.output and "no axis moved" in no_stock.output
+
+
+def test_compare_cuts_both_programs_and_differs_by_the_facets(tmp_path):
+    from click.testing import CliRunner
+
+    from machine.cli import main
+
+    a, b, machine = tmp_path / "g01.nc", tmp_path / "nurbs.nc", tmp_path / "m.toml"
+    a.write_text(bowl_polygon_program(17))
+    b.write_text(bowl_nurbs_program())
+    default = Path(__file__).resolve().parents[1] / "programs" / "machine.toml"
+    machine.write_text(default.read_text().replace("g64_blend_tol_mm = 0.01", "g64_blend_tol_mm = 0.0"))
+    png = tmp_path / "pair.png"
+    res = CliRunner().invoke(main, ["compare", str(a), str(b), "--machine", str(machine), "--stock", BOWL_STOCK,
+                                    "--grid-um", "20", "--surface-plot", str(png), "--json"])
+    assert res.exit_code == 0, res.output
+    diff = json.loads(res.stdout)["surfaces"]["difference_um"]["max_abs"]
+    sagitta_um = 20.0 * (1 - math.cos(math.pi / 3 / 17 / 2)) * 1e3
+    # radial sagitta seen vertically on a bowl sloping up to 30 degrees, plus the BLU floor of both
+    assert sagitta_um - 1.0 <= diff <= sagitta_um / math.cos(math.pi / 6) + 2.0
+    assert png.stat().st_size > 10_000
