@@ -42,6 +42,7 @@ class StreamResult:
     resume: ResumePoint | None = None  # where the next session continues (None after a lost connection)
     status: P.Status | None = None  # after the stream (after the reset, when it stopped)
     held: P.Status | None = None  # when a stop found grbl standing still, before the reset
+    before_hold: P.Status | None = None  # the last status before the feed hold went out
     rx_fill: list[int] = field(default_factory=list)  # unanswered bytes after each send
 
 

@@ -90,7 +90,7 @@ def stream(link, lines: Iterable[StreamLine], ledger: Ledger, result, *,
                                          "or power)", 0, 0)
                     ledger.discard_waiting()
                 elif r.kind == "status" and draining:
-                    idle = link.status.state == "Idle"
+                    idle = link.status.state in ("Idle", "Check")  # Check: check mode ran every line
             if result.fault is None and link.stop_requested:
                 result.fault = Fault("stopped", f"stopped: {link.stop_requested}", 0, 0)
             if on_progress and now - t_prog >= progress_interval_s:
@@ -176,6 +176,7 @@ def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None,
 def _stop(link, result, recent: deque[StreamLine]) -> None:
     """Hold, let the answers for lines grbl already has arrive, reset once still, find the resume line."""
     ledger = result.ledger
+    result.before_hold = link.status
     held = _hold(link, ledger)
     result.held = held
     link.soft_reset(ledger)
@@ -198,6 +199,10 @@ def _stop(link, result, recent: deque[StreamLine]) -> None:
         result.fault.message += (f"; WARNING: grbl ran stream lines {result.fault.seq + 1}.."
                                  f"{result.resume.seq - 1} after rejecting line {result.fault.seq}, so "
                                  f"that line's motion was not made")
+    if held is not None and result.before_hold is not None and result.before_hold.mpos and held.mpos:
+        d = sum((a - b) ** 2 for a, b in zip(held.mpos, result.before_hold.mpos)) ** 0.5
+        result.fault.message += (f"; the feed hold stopped the machine {d:.3f} mm past the last position "
+                                 f"reported before it ({result.before_hold.state})")
     w = st.wpos or st.mpos
     result.fault.message += (f"; machine stopped at X{w[0]:.3f} Y{w[1]:.3f} Z{w[2]:.3f} (work), "
                              f"resume with --resume (or --resume-from {result.resume.seq})")
