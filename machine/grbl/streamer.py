@@ -182,7 +182,7 @@ def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None, pla
 def _stop(link, result, recent: deque[StreamLine]) -> None:
     """Hold, let the answers for lines grbl already has arrive, reset once still, find the resume line."""
     ledger = result.ledger
-    result.before_hold = link.status
+    result.before_hold = link.status_at_stop or link.status
     held = _hold(link, ledger)
     result.held = held
     link.soft_reset(ledger)
