@@ -197,6 +197,13 @@ class Interpreter:
             return
         params = self.state.params
         params.line = line
+        if not block.words and not block.messages and self.state.nurbs is None:
+            # parameter assignments alone (loop counters): no codes to check, no state but the table
+            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+            for key, _ in assigns:
+                params.check_writable(key)
+            params.update(assigns)
+            return
         vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
         for i, ((letter, _), v) in enumerate(zip(block.words, vals)):
             if letter in "GM" and not -MAX_VALUE < v < MAX_VALUE:   # before the codes are looked up
