@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from ipr import nurbs_blocks
+from ipr import cutter_comp, nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Message
 from ipr.dialect import sender_command
@@ -229,6 +229,8 @@ class Interpreter:
 
     def finish(self, last_line: int) -> None:
         """End of input: an open NURBS group is an error; the knock-on errors left out are noted."""
+        if self.state.comp is not None:
+            cutter_comp.flush_all(self.state, self.out)
         for root, message in self.knock_on.summary():
             self.warnings.append(Diagnostic(self.file, root, 1, "N-KNOCK-ON", message, "notice"))
         group = self.state.nurbs
