@@ -33,6 +33,10 @@ def _grbl_job(path, config, state, numbered=False, frame_mm=None):
         raise click.ClickException(str(err)) from None
 
 
+def _stdout_is_terminal() -> bool:
+    return sys.stdout.isatty()
+
+
 def _dry_run(protocol, file, program, config, resume_from) -> None:
     out = sys.stdout.buffer
     if protocol == "increments":
@@ -107,7 +111,7 @@ def _stream_increments(port, baud, program, config) -> None:
 def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlock, resume, ledger_file, estimate,
             poll_hz):
     """Stream FILE to a grbl 1.1 board or an increment-protocol drive."""
-    if dry_run and protocol == "increments" and sys.stdout.isatty():
+    if dry_run and protocol == "increments" and _stdout_is_terminal():
         raise click.UsageError("--dry-run with --protocol increments writes binary frames: "
                                "redirect stdout to a file or a pipe")
     config = load_machine(machine_file)
