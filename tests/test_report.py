@@ -104,7 +104,7 @@ needs_chromium = pytest.mark.skipif(browser.CHROMIUM is None,
 
 def _open(page_path: Path, shot: Path):
     page = browser.Page(page_path.as_uri())
-    page.wait_for("window.vcncReport && (window.vcncReport.ready || document.getElementById('error'))")
+    page.wait_for("window.vcncReport && (window.vcncReport.ready || !!document.getElementById('error'))")
     assert page.evaluate("window.vcncReport.ready"), page.evaluate("document.getElementById('error').textContent")
     return page
 
@@ -165,5 +165,28 @@ def test_finishing_report_in_chromium_names_the_traced_line(tmp_path):
         page.evaluate("document.getElementById('colourby').value = 'reason'; "
                       "document.getElementById('colourby').dispatchEvent(new Event('change')); true")
         shot = page.screenshot(tmp_path / "finish.png")
+        assert page.errors == []
+    assert _not_blank(shot) > 0.05
+
+
+@needs_chromium
+def test_compare_report_in_chromium_aligns_both_programs_by_distance(tmp_path):
+    g2, nurbs = ROOT / "programs" / "circle_g2.nc", ROOT / "programs" / "circle_nurbs.nc"
+    out = tmp_path / "cmp.html"
+    r = vcnc("compare", g2, nurbs, "--report", out)
+    assert r.exit_code == 0, r.stderr
+    g2_line = _source_line(g2, r"^G2 X10 Y0 I-10")
+    nurbs_lines = [i + 1 for i, text in enumerate(nurbs.read_text().splitlines()) if re.match(r"G06\.2|K", text)]
+    with _open(out, tmp_path / "cmp.png") as page:
+        assert _plots(page) == 2
+        # both start with 5 mm of rapid up, 10 mm across and 5 mm down to the circle of radius 10
+        # about X0 Y0 (from the G2's I-10): half way round it, both tools are on that circle
+        picks = page.evaluate("window.vcncReport.selectDistance(20 + 10 * Math.PI)")
+        assert [p["line"] for p in picks][0] == g2_line and picks[1]["line"] in nurbs_lines
+        for p in picks:
+            assert math.hypot(p["pos"][0], p["pos"][1]) == pytest.approx(10, abs=0.01)
+            assert p["pos"][0] == pytest.approx(-10, abs=0.05)
+        assert page.evaluate("document.getElementById('pick').textContent").count("line ") == 2
+        shot = page.screenshot(tmp_path / "cmp.png")
         assert page.errors == []
     assert _not_blank(shot) > 0.05

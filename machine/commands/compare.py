@@ -32,6 +32,7 @@ SLOW_FRACTION = 0.5
 MIN_FEED_SKIP_MM = 1.0
 WINDOW_MM = 2.0
 DETAIL_MM = 250.0  # the zoomed part of the plot
+_NOT_FIGURES = ("trace", "feed_lines", "rpm", "program", "summary", "deviation_mm")  # a run's non-figures
 TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness model
 
 
@@ -41,8 +42,9 @@ def _run(path: Path, config):
     from ipo.fit.convert import count_blocks
     from machine.trace import MemoryTrace
 
-    sink = MemoryTrace({})
-    ctl = Controller(config, sinks=[sink])
+    ctl = Controller(config)
+    sink = MemoryTrace(ctl.limits.meta())
+    ctl.sinks = [sink]
     program = ctl.check(path)
     result = ctl.run(program)
     if result.state != "completed":
@@ -55,7 +57,7 @@ def _run(path: Path, config):
     text = path.read_bytes()
     return {"blocks": count_blocks(text.decode("utf-8", "replace")), "bytes": len(text),
             "time_s": float(result.cycle_time_s), "max_chord_error_um": float(result.max_chord_error_um),
-            "trace": trace, "feed_lines": feed_lines, "rpm": rpm}
+            "trace": trace, "feed_lines": feed_lines, "rpm": rpm, "program": program, "summary": result.summary()}
 
 
 def _cut_periods(run: dict):
@@ -113,9 +115,9 @@ def _roughness(run: dict, config) -> dict:
     return {"rmax_max_um": float(r.max() * 1e3), "rmax_mean_um": float(r.mean() * 1e3)}
 
 
-def _path_distance_um(a: np.ndarray, b: np.ndarray) -> float:
-    """Largest distance from a point of a to the polyline b, each point checked against the segments
-    of b within WINDOW_MM of the same (proportional) arc length: an upper bound of the true distance."""
+def path_distances_mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from each point of a to the polyline b, each point checked against the segments of
+    b within WINDOW_MM of the same (proportional) arc length: an upper bound of the true distance."""
     sa = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(a, axis=0), axis=1))])
     sb = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(b, axis=0), axis=1))])
     at = sa * (sb[-1] / max(sa[-1], 1e-300))
@@ -130,7 +132,7 @@ def _path_distance_um(a: np.ndarray, b: np.ndarray) -> float:
         len2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
         t = np.clip(np.einsum("ij,ij->i", a - p0, d) / len2, 0.0, 1.0)
         best = np.minimum(best, np.linalg.norm(a - p0 - t[:, None] * d, axis=1))
-    return float(best.max() * 1e3)
+    return best
 
 
 def compare_programs(path_a, path_b, machine=None) -> dict:
@@ -143,13 +145,14 @@ def compare_programs(path_a, path_b, machine=None) -> dict:
     for key, path in (("a", Path(path_a)), ("b", Path(path_b))):
         run = _run(path, config)
         runs[key] = run
-        figs = {k: v for k, v in run.items() if k not in ("trace", "feed_lines", "rpm")}
+        figs = {k: v for k, v in run.items() if k not in _NOT_FIGURES}
         figs.update(_feed_figures(run))
         figs.update(_roughness(run, config))
         out[key] = figs
     pa, pb = runs["a"]["trace"]["pos_mm"], runs["b"]["trace"]["pos_mm"]
-    out["a"]["path_distance_um"] = _path_distance_um(pa, pb)
-    out["b"]["path_distance_um"] = _path_distance_um(pb, pa)
+    runs["a"]["deviation_mm"] = path_distances_mm(pa, pb)
+    out["a"]["path_distance_um"] = float(runs["a"]["deviation_mm"].max() * 1e3)
+    out["b"]["path_distance_um"] = float(path_distances_mm(pb, pa).max() * 1e3)
     out["_runs"] = runs
     return out
 
@@ -172,27 +175,30 @@ def _plot(res: dict, out: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from machine.plot import envelope_line
+
     fig, ((ax_path, ax_feed), (ax_near, ax_near_feed)) = plt.subplots(2, 2, figsize=(14, 10))
     for key, style in (("a", "-"), ("b", "--")):
         run = res["_runs"][key]
         name = Path(res["files"][key == "b"]).name
         pos = run["trace"]["pos_mm"]
-        i, j, k = np.argsort(np.ptp(pos, axis=0))[::-1]
-        ax_path.plot(pos[:, i], pos[:, j], style, lw=0.6, label=name)
-        ax_path.set_xlabel("XYZ"[i] + " mm")
-        ax_path.set_ylabel("XYZ"[j] + " mm")
+        # the true XY view: X across, Y up, one scale (a circle is a circle, not its mirror image)
+        ax_path.plot(pos[:, 0], pos[:, 1], style, lw=0.6, label=name)
         idx, speed, _, step = _cut_periods(run)
         s = np.cumsum(step)
-        ax_feed.plot(s[idx], speed[idx] * 60, style, lw=0.6, label=name)
+        ax_feed.plot(*envelope_line(s[idx], speed[idx] * 60), style, lw=0.6, label=name)
         near = idx[s[idx] <= s[idx[0]] + DETAIL_MM]
-        side = k if np.ptp(pos[near, k]) > 0 else j
-        ax_near.plot(pos[near, i], pos[near, side], style, lw=0.8, label=name)
-        ax_near.set_xlabel("XYZ"[i] + " mm")
+        side = 2 if np.ptp(pos[near, 2]) > 0 else 1
+        ax_near.plot(pos[near, 0], pos[near, side], style, lw=0.8, label=name)
         ax_near.set_ylabel("XYZ"[side] + " mm")
-        ax_near_feed.plot(s[near], speed[near] * 60, style, lw=0.8, label=name)
+        ax_near_feed.plot(*envelope_line(s[near], speed[near] * 60), style, lw=0.8, label=name)
+    ax_path.set_xlabel("X mm")
+    ax_path.set_ylabel("Y mm")
+    ax_near.set_xlabel("X mm")
     ax_path.set_title("paths (commanded positions)")
     ax_path.set_aspect("equal", adjustable="datalim")
-    ax_feed.set_title("feed against distance (cutting periods)")
+    ax_near.set_aspect("equal", adjustable="datalim")
+    ax_feed.set_title("feed against distance (cutting periods; min and max per column)")
     ax_near.set_title(f"the first {DETAIL_MM:g} mm of cut")
     ax_near_feed.set_title(f"feed over the first {DETAIL_MM:g} mm of cut")
     for ax in (ax_feed, ax_near_feed):
@@ -212,8 +218,11 @@ def _plot(res: dict, out: str) -> None:
               help="Machine file (TOML); the built-in default if omitted.")
 @click.option("--plot", "plot_out", type=OutputPath((".png",)), default=None,
               help="Write a PNG: the two paths overlaid and their feed against distance.")
+@click.option("--report", "report_out", type=OutputPath((".html", ".htm")), default=None,
+              help="Write an interactive one-file HTML report: both runs aligned by distance, their differences.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
-def command(a: str, b: str, machine: str | None, plot_out: str | None, as_json: bool) -> None:
+def command(a: str, b: str, machine: str | None, plot_out: str | None, report_out: str | None,
+            as_json: bool) -> None:
     """Run two programs in the same controller and compare them (002 Table 1)."""
     from ipo.config import ConfigError
     from machine.controller import ProgramRejected
@@ -226,9 +235,17 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, as_json: 
         raise click.ClickException(f"machine file {machine}: {err}") from None
     if plot_out:
         _plot(res, plot_out)
+    if report_out:
+        from machine.report.build import compare_report, machine_info
+
+        table = [[label] + ["-" if x[key] is None else fmt.format(x[key]) for x in (res["a"], res["b"])]
+                 for label, key, fmt in ROWS]
+        compare_report(report_out, res["_runs"], res["files"], table, machine_info(machine))
     if as_json:
         click.echo(json.dumps({k: v for k, v in res.items() if k != "_runs"}, indent=1))
     else:
         click.echo(format_table(res))
         if plot_out:
             click.echo(f"plot: {plot_out}")
+        if report_out:
+            click.echo(f"report: {report_out}")

@@ -127,14 +127,24 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
         return controller.run(program, progress=lambda line: bar.update(task, completed=line))
 
 
-def _write_report(out, digest, program, result, machine_file) -> None:
-    from machine.report.build import machine_info, run_report
-
+def _write_pictures(digest, plot_file, report_file, program, result, machine_file) -> None:
+    """The PNG and the HTML report, both from the run's digest."""
     if digest.periods == 0:
-        click.echo(f"{program.file}: nothing moved, no report written", err=True)
+        click.echo(f"{program.file}: nothing moved, no plot or report written", err=True)
         return
-    run_report(out, digest, program=program, summary=result.summary(), machine=machine_info(machine_file))
-    click.echo(f"report written to {out}", err=True)
+    from ipr.entities import Rapid
+
+    rapid = {e.line for e in program.entities if isinstance(e, Rapid)}
+    if plot_file:
+        from machine.plot import plot_digest
+
+        plot_digest(digest, plot_file, title=f"vcnc run {program.file}", rapid_lines=rapid)
+        click.echo(f"plot written to {plot_file}", err=True)
+    if report_file:
+        from machine.report.build import machine_info, run_report
+
+        run_report(report_file, digest, program=program, summary=result.summary(), machine=machine_info(machine_file))
+        click.echo(f"report written to {report_file}", err=True)
 
 
 @click.command("run")
@@ -156,7 +166,7 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.report.digest import DigestSink
-    from machine.trace import MemoryTrace, load_trace, open_writer
+    from machine.trace import open_writer
 
     config = load_machine(machine_file)
     if period_ms is not None:
@@ -188,9 +198,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     servo = config.servo.model != "none"
     meta = dict(controller.limits.meta(), file=str(file))
     writer = open_writer(trace_file, meta, servo) if trace_file else None
-    memory = MemoryTrace(meta) if plot_file and not trace_file else None
-    digest = DigestSink(meta, servo=servo) if report_file else None
-    controller.sinks = [s for s in (writer, memory, digest) if s is not None]
+    digest = DigestSink(meta, servo=servo) if plot_file or report_file else None  # memory bounded, unlike a trace
+    controller.sinks = [s for s in (writer, digest) if s is not None]
     try:
         with _Compiling() as compiling:
             if realtime:
@@ -211,15 +220,6 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         click.echo(f"{file}: {result.state} at {where}, position "
                    f"X{result.position_mm[0]:.4f} Y{result.position_mm[1]:.4f} Z{result.position_mm[2]:.4f}"
                    + (f": {result.fault}" if result.fault else ""), err=True)
-    if plot_file:
-        from machine.plot import plot_trace
-
-        trace = load_trace(trace_file) if trace_file else memory.close()
-        if len(trace):
-            plot_trace(trace, plot_file, title=f"vcnc run {file}")
-            click.echo(f"plot written to {plot_file}", err=True)
-        else:
-            click.echo(f"{file}: nothing moved, no plot written", err=True)
-    if report_file:
-        _write_report(report_file, digest.finish(), program, result, machine_file)
+    if digest is not None:
+        _write_pictures(digest.finish(), plot_file, report_file, program, result, machine_file)
     sys.exit({"completed": 0, "stopped": 0, "interrupted": 130}.get(result.state, 1))

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from ipo.contracts import LIMIT_NAMES
-from machine.report.digest import ROW, Digest
-from machine.report.envelope import EnvelopeData
+from machine.report.digest import MAX_BUCKETS, ROW, Digest, digest_trace
+from machine.report.envelope import Envelope, EnvelopeData
 from machine.report.page import Blob, write_page
 
 LIMIT_COLOURS = ("#66bb6a", "#42a5f5", "#ffa726", "#ec407a", "#7e57c2", "#fdd835", "#9e9e9e")
@@ -36,8 +36,8 @@ def _add_envelope(blob: Blob, prefix: str, env: EnvelopeData) -> None:
     blob.add(prefix + "hi", env.hi, "f4")
     blob.add(prefix + "arg_lo", env.arg_lo, "i4")
     blob.add(prefix + "arg_hi", env.arg_hi, "i4")
-    blob.add(prefix + "s", env.first_rows[:, ROW.index("s")], "f8")
-    blob.add(prefix + "reason", env.dominant(), "u1")
+    if env.counts.shape[1]:
+        blob.add(prefix + "reason", env.dominant(), "u1")
 
 
 def add_run(blob: Blob, k: int, digest: Digest, *, name: str, program_file: str | Path, rapid_lines,
@@ -102,3 +102,41 @@ def run_report(out: str | Path, digest: Digest, *, program, summary: dict, machi
                     machine=machine, surface=surface)
     info = dict(_base_info("run"), runs=[entry])
     return write_page(out, f"vcnc run {program.file}", info, blob)
+
+
+DIFFERENCES = ("Δ feed mm/s", "path gap µm")  # the second's feed minus the first's; distance between the paths
+
+
+def differences(run_a: dict, run_b: dict, *, batch: int = 1 << 16) -> EnvelopeData:
+    """Envelopes over the first run's periods of how the second differs at the same distance along
+    the path (the second's distance scaled to the first's length, as compare's path distance does):
+    its planned feed minus the first's, and the distance from the first's path to the second's."""
+    tr_a, tr_b = run_a["trace"], run_b["trace"]
+    s_a, s_b = (np.cumsum(np.linalg.norm(np.diff(t["pos_mm"], axis=0, prepend=t["pos_mm"][:1]), axis=1))
+                for t in (tr_a, tr_b))
+    scale = s_a[-1] / s_b[-1] if s_b[-1] > 0 else 1.0
+    env = Envelope(len(DIFFERENCES), max_buckets=MAX_BUCKETS)
+    for i in range(0, len(tr_a), batch):
+        part = slice(i, i + batch)
+        feed_b = np.interp(s_a[part], s_b * scale, tr_b["feed_mm_s"])
+        env.add(np.column_stack((feed_b - tr_a["feed_mm_s"][part], run_a["deviation_mm"][part] * 1e3)))
+    return env.finish()
+
+
+def compare_report(out: str | Path, runs: dict, files: list[str], table: list[list[str]], machine: dict) -> Path:
+    """The report of `vcnc compare`: runs["a"], runs["b"] as compare's _run keeps them."""
+    from ipr.entities import Rapid
+
+    blob = Blob()
+    entries = []
+    for k, key in enumerate("ab"):
+        run = runs[key]
+        program = run["program"]
+        digest = digest_trace(run["trace"])
+        entries.append(add_run(blob, k, digest, name=Path(files[k]).name, program_file=program.file,
+                               rapid_lines={e.line for e in program.entities if isinstance(e, Rapid)},
+                               summary=run["summary"], warnings=program.warnings,
+                               messages=run["summary"].get("messages", ()), machine=machine))
+    _add_envelope(blob, "d_env_", differences(runs["a"], runs["b"]))
+    info = dict(_base_info("compare"), runs=entries, compare={"signals": list(DIFFERENCES), "table": table})
+    return write_page(out, f"vcnc compare {files[0]} {files[1]}", info, blob)

@@ -150,8 +150,7 @@
   }
 
   // M4 line through each bucket's minimum and maximum, in time order: no extreme is lost
-  function envelopeXY(k, j, prefix, xOf) {
-    const r = run(k), m = r.signals ? r.signals.length : 1;
+  function envelopeXY(prefix, m, j, xOf) {
     const lo = A[`${prefix}lo`], hi = A[`${prefix}hi`], alo = A[`${prefix}arg_lo`], ahi = A[`${prefix}arg_hi`];
     const nb = lo.length / m;
     const x = new Float64Array(2 * nb), y = new Float32Array(2 * nb);
@@ -199,7 +198,7 @@
     const nb = A[`r${k}_env_reason`].length;
     const xs = new Float64Array(nb + 1);
     for (let b = 0; b <= nb; b++) xs[b] = Math.min(b * W, r.periods) * T;
-    const feed = envelopeXY(k, 0, `r${k}_env_`, tOf);
+    const feed = envelopeXY(`r${k}_env_`, r.signals.length, 0, tOf);
     let top = 0;
     for (let i = 0; i < feed.y.length; i++) if (feed.y[i] > top) top = feed.y[i];
     top = top * 1.08 || 1;
@@ -215,7 +214,7 @@
       const yaxis = `y${row + 2}`;
       const ys = [];
       AXES.forEach((ax, a) => {
-        const e = envelopeXY(k, j0 + a, `r${k}_env_`, tOf);
+        const e = envelopeXY(`r${k}_env_`, r.signals.length, j0 + a, tOf);
         ys.push(e.y);
         const lim = r.limits[kind] ? r.limits[kind][a] : null;
         traces.push({ type: "scattergl", mode: "lines", x: e.x, y: e.y, name: `${ax} ${kind}`, yaxis, xaxis: "x",
@@ -254,7 +253,7 @@
       const nb = A[`r${k}_env_reason`].length;
       const xs = new Float64Array(nb + 1);
       for (let b = 0; b <= nb; b++) xs[b] = sOf(Math.min(b * W, r.periods - 1));
-      const feed = envelopeXY(k, 0, `r${k}_env_`, sOf);
+      const feed = envelopeXY(`r${k}_env_`, r.signals.length, 0, sOf);
       let top = 0;
       for (let i = 0; i < feed.y.length; i++) if (feed.y[i] > top) top = feed.y[i];
       if (info.kind === "run") traces.push(...reasonBands(k, `r${k}_env_`, xs, top * 1.08 || 1, "y", "x"));
@@ -265,12 +264,14 @@
     if (info.kind === "compare") {
       layout.yaxis.domain = [0.56, 1];
       const c = info.compare, pp = A.r0_path_period, ps = A.r0_path_s;
+      layout.xaxis.anchor = `y${c.signals.length + 1}`;
       const sOf = (p) => { const i = floorIndex(pp, p), j = Math.min(i + 1, pp.length - 1);
         const f = pp[j] > pp[i] ? (p - pp[i]) / (pp[j] - pp[i]) : 0; return ps[i] + f * (ps[j] - ps[i]); };
       c.signals.forEach((label, j) => {
-        const e = envelopeXY(0, j, "d_env_", sOf);
+        const e = envelopeXY("d_env_", c.signals.length, j, sOf);
         const yaxis = `y${j + 2}`;
-        traces.push({ type: "scattergl", mode: "lines", x: e.x, y: e.y, name: label, yaxis,
+        const what = j ? "distance from the first path to the second" : "feed of the second minus the first";
+        traces.push({ type: "scattergl", mode: "lines", x: e.x, y: e.y, name: `${label}: ${what}`, yaxis,
           line: { color: j ? "#6a1b9a" : "#2e7d32", width: 1 } });
         layout[`yaxis${j + 2}`] = { domain: j ? [0, 0.2] : [0.26, 0.5], title: { text: label }, anchor: "x" };
       });
