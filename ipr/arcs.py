@@ -19,6 +19,15 @@ ARC_TOL_REL = 0.001     # ... or 0.1 % of the radius, whichever is larger
 ARC_TOL_INCH = 0.0002
 
 
+# LinuxCNC's interp_arc.cc: an end radius off by more than 2*0.001*sqrt(2) inch (G20) or
+# 2*0.01*sqrt(2) mm (G21) *and* 0.1 % of the radius, or by more than 100 times that, is refused;
+# below that LinuxCNC runs a spiral. vcnc runs a circle: such an arc's centre moves onto the
+# perpendicular bisector of start and end (the nearest such point to the programmed centre).
+SPIRAL_ABS_MM = 2 * 0.01 * math.sqrt(2)
+SPIRAL_ABS_INCH = 2 * 0.001 * math.sqrt(2)
+SPIRAL_REL = 0.001
+
+
 def radius_tolerance_mm(radius_mm: float, unit_mm: float = 1.0) -> float:
     absolute = ARC_TOL_MM if unit_mm == 1.0 else ARC_TOL_INCH * unit_mm
     return max(absolute, ARC_TOL_REL * radius_mm)
@@ -33,12 +42,33 @@ def center_from_offsets(start, end, plane: str, center_ab: tuple[float, float], 
     r1 = math.hypot(end[a] - ca, end[b] - cb)
     if r0 < 1e-9:
         raise BlockError("E-ARC-RADIUS", "arc centre is at the start point (zero radius)", word)
-    if abs(r1 - r0) > radius_tolerance_mm(r0, unit_mm):
-        raise BlockError("E-ARC-RADIUS", f"arc end point is {abs(r1 - r0):.3f} mm off the circle "
-                         f"through the start point (radius {r0:.3f} mm)", word)
+    err = abs(r1 - r0)
+    limit = SPIRAL_ABS_MM if unit_mm == 1.0 else SPIRAL_ABS_INCH * unit_mm
+    if err > 100.0 * limit or (err > limit and err / max(r0, r1) > SPIRAL_REL):
+        raise BlockError("E-ARC-RADIUS", f"arc end point is {err:.3f} mm off the circle through the start "
+                         f"point (radius {r0:.3f} mm; LinuxCNC allows {limit:.4f} mm, or 0.1 % of the "
+                         f"radius up to {100 * limit:.2f} mm)", word)
+    if err > radius_tolerance_mm(r0, unit_mm):
+        na, nb = _onto_bisector(start[a], start[b], end[a], end[b], ca, cb)
+        if math.hypot(na - ca, nb - cb) > 2.0 * err:   # nearly a full circle: no circle is close
+            raise BlockError("E-ARC-RADIUS", f"arc end point is {err:.3f} mm off the circle through the start "
+                             f"point (radius {r0:.3f} mm), and start and end are too close for a circle "
+                             "through both near the programmed centre (LinuxCNC would run a spiral)", word)
+        ca, cb = na, nb
     c = [0.0, 0.0, 0.0]
     c[a], c[b], c[n] = ca, cb, start[n]
     return tuple(c)
+
+
+def _onto_bisector(sa: float, sb: float, ea: float, eb: float, ca: float, cb: float) -> tuple[float, float]:
+    """The point of the perpendicular bisector of start-end nearest to (ca, cb)."""
+    ma, mb = (sa + ea) / 2.0, (sb + eb) / 2.0
+    da, db = eb - sb, -(ea - sa)          # along the bisector
+    norm2 = da * da + db * db
+    if norm2 == 0.0:
+        return ca, cb
+    t = ((ca - ma) * da + (cb - mb) * db) / norm2
+    return ma + t * da, mb + t * db
 
 
 def center_from_radius(start, end, plane: str, radius_mm: float, ccw: bool, word: int | None,

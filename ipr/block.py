@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 
+from ipr.dialect import EXTRA_G, EXTRA_M
 from ipr.errors import BlockError, code_name
 
 CYCLES = (730, 740, 810, 820, 830, 840, 850, 860, 880, 890)   # canned cycles (ipr.cycles)
@@ -127,11 +128,11 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
         return BlockError("E-WORD-MISSING", "M98 needs a P word (the subprogram number)", spec.where["subprogram"])
     cycle = m in CYCLES
     io = (mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
-          or mc.get("spindle") == 190)   # M19 R (angle) Q (timeout) P (direction)
+          or mc.get("spindle") == 190 or "dialect_g" in g)   # M19 R (angle) Q (timeout) P (direction)
     users = {
         "I": m in (20, 30, 50, 51), "J": m in (20, 30, 50, 51), "K": m in (20, 30, 62),
         "R": m in (20, 30, 62) or cycle or nonmodal == 100 or mc.get("spindle") == 190,
-        "E": mc.get("io") is not None or mc.get("user") is not None,
+        "E": mc.get("io") is not None or mc.get("user") is not None or "dialect_g" in g,
         "P": (nonmodal in (40, 100) or g.get("path") == 640 or m in (20, 30, 50, 52, 62)
               or m in DWELL_CYCLES or io or m98),
         "Q": g.get("path") == 640 or m in (50, 62, 730, 830) or io or mc.get("toolchange") == 610,
@@ -154,8 +155,9 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
 
 
 @lru_cache(maxsize=4096)
-def analyse(signature: tuple) -> BlockSpec | BlockError:
-    """Check a signature: ((letter, G/M value or None), ...) in text order."""
+def analyse(signature: tuple, dialect: str = "linuxcnc") -> BlockSpec | BlockError:
+    """Check a signature: ((letter, G/M value or None), ...) in text order; a dialect's own
+    codes (ipr.dialect) are groups "dialect_g" / "dialect_m"."""
     g: dict[str, int] = {}
     m: dict[str, int] = {}
     where: dict[str, int] = {}
@@ -167,8 +169,9 @@ def analyse(signature: tuple) -> BlockSpec | BlockError:
         if letter in "GM":
             code = round(value * 10)
             table = G_GROUPS if letter == "G" else M_GROUPS
+            extra = (EXTRA_G if letter == "G" else EXTRA_M)[dialect]
             exact = abs(value * 10 - code) < 1e-6
-            group = table.get(code) if exact else None
+            group = (f"dialect_{letter.lower()}" if code in extra else table.get(code)) if exact else None
             if group is None:
                 why = _WHY_NOT.get(code) if letter == "G" and exact else None
                 kind = "E-GCODE-UNSUPPORTED" if letter == "G" else "E-MCODE-UNSUPPORTED"

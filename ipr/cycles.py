@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+from ipr.dialect import dwell_seconds
 from ipr.entities import EXACT_STOP, PLANE_AXES, Dwell, Line, Rapid, Spindle, Stop
 from ipr.errors import BlockError, code_name
 from ipr.modal import to_machine, to_program
@@ -76,7 +77,8 @@ def _word(spec, vals, letter: str):
     return None if i is None else vals[i]
 
 
-def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before: int | None) -> None:
+def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before: int | None,
+              dialect: str = "linuxcnc") -> None:
     """Steps of LinuxCNC's convert_cycle + convert_cycle_xy for the active cycle `st.motion`."""
     motion, where = st.motion, spec.where.get("motion")
     name = code_name("G", motion / 10)
@@ -161,7 +163,7 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
             em.traverse(aa, bb, clear)
             if clear > r:
                 em.traverse(aa, bb, r)
-        _body(em, motion, aa, bb, r, clear, cc, p, q, st)
+        _body(em, motion, aa, bb, r, clear, cc, dwell_seconds(dialect, p), q, st)
     st.pos = em.pos
     st.cycle = CycleMemory(motion, r_word, cc_word, p, q, initial)
     if motion == 880:

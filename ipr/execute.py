@@ -10,11 +10,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ipr import cycles, modes, nurbs_blocks, offsets
+from ipr import cycles, modes, nurbs_blocks, offsets, splines
 from ipr.arcs import make_arc
 from ipr.block import AXES, CYCLES, BlockSpec
 from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
+from ipr.dialect import allows_zero_normal_offset, dwell_seconds
 from ipr.errors import BlockError
 from ipr.mcodes import execute_mcodes
 from ipr.modal import INCH_MM, Setup, Staged, rotate_xy, target, to_machine
@@ -43,13 +44,13 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
     if "spindle_mode" in g:
         modes.set_spindle_mode(st, spec, vals, out, line, g["spindle_mode"])
     _spindle_tool(st, spec, vals, out, notices, line, setup)
-    if m.keys() - _BASIC_M:
+    if m.keys() - _BASIC_M or "dialect_g" in g:
         execute_mcodes(st, spec, vals, out, line, setup)
     if g.get("nonmodal") == 40:
         p = vals[idx["P"]]
         if p < 0.0:
             raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
-        out.append(Dwell(line, p))
+        out.append(Dwell(line, dwell_seconds(setup.dialect, p)))
     _modes(st, spec, vals, notices, setup)
     nonmodal = g.get("nonmodal")
     if nonmodal == 100:
@@ -65,7 +66,7 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
     if "motion" in g:
         st.motion = g["motion"]
     if spec.moves(motion_before):
-        _motion(st, spec, vals, out, notices, line, motion_before)
+        _motion(st, spec, vals, out, notices, line, motion_before, setup.dialect)
     stop = m.get("stop")
     if stop is not None:
         out.append(ProgramEnd(line) if stop in (20, 300) else Stop(line, optional=stop == 10))
@@ -138,13 +139,14 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
         st.retract_r = g["retract"] == 990
 
 
-def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_before: int | None) -> None:
+def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_before: int | None,
+            dialect: str) -> None:
     motion = st.motion
     g53 = spec.g.get("nonmodal") == 530
     if g53 and not st.absolute:
         raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
     if motion in CYCLES:
-        return cycles.run_cycle(st, spec, vals, out, notices, line, motion_before)
+        return cycles.run_cycle(st, spec, vals, out, notices, line, motion_before, dialect)
     if motion in (52, 62):
         if st.rotation_deg:
             raise BlockError("E-OFFSET", "NURBS blocks in a rotated coordinate system (G10 L2 R) are not "
@@ -159,27 +161,37 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
         word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
         if st.feed_mm_s <= 0.0:
             raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", word)
+        if motion in (50, 51):
+            if st.feed_mode == 930:
+                raise BlockError("E-FEED-MODE", "G5/G5.1 splines in inverse time feed (G93) are not supported",
+                                 word)
+            out.append(splines.spline(st, spec, vals, motion_before,
+                                      modes.move_feed_mm_s(st, spec, vals, word, st.pos, end), line))
+            return
         if motion == 10:
             feed_mm_s = modes.move_feed_mm_s(st, spec, vals, word, st.pos, end)
             out.append(Line(line, st.pos, end, feed_mm_s, st.path))
         else:
-            arc = _arc(st, spec, vals, end, st.feed_mm_s, line)
+            arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices)
             if st.feed_mode != 940:
                 arc = replace(arc, feed_mm_s=modes.move_feed_mm_s(st, spec, vals, word, st.pos, end, arc))
             out.append(arc)
     st.pos = end
 
 
-def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int):
+def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, dialect: str, notices):
     idx, plane = spec.index, st.plane
     a, b, n = PLANE_AXES[plane]
     where = spec.where.get("motion")
-    offs = [letter for letter in "IJK" if letter in idx]
     normal_offset = "IJK"[n]
+    if normal_offset in idx:
+        if vals[idx[normal_offset]] != 0.0 or not allows_zero_normal_offset(dialect):
+            raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
+        notices.append(("N-RECORDED", f"{normal_offset}0 on a {plane} arc read as absent ({dialect} dialect)",
+                        idx[normal_offset]))
+    offs = [letter for letter in "IJK" if letter in idx and letter != normal_offset]
     if "R" in idx and offs:
         raise BlockError("E-ARC-FORMAT", "arc with both R and I/J/K", idx["R"])
-    if normal_offset in idx:
-        raise BlockError("E-ARC-FORMAT", f"{normal_offset} word in a {plane} arc", idx[normal_offset])
     turns = 0
     if "P" in idx:
         p = vals[idx["P"]]

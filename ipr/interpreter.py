@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from ipr import nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Message
+from ipr.dialect import sender_command
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
@@ -109,7 +110,7 @@ class Interpreter:
         if tpl is None:
             plan = None
         else:
-            spec = analyse(tuple(zip(tpl.letters, tpl.fixed)))
+            spec = analyse(tuple(zip(tpl.letters, tpl.fixed)), self.setup.dialect)
             step = None
             if spec.__class__ is BlockSpec and not tpl.delete and (spec.linear or spec.plain_arc):
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
@@ -173,6 +174,9 @@ class Interpreter:
 
     def _full(self, line: int, text: str) -> None:
         """A line that is not simple: expressions, parameters, comments, syntax errors."""
+        if sender_command(text):
+            raise BlockError("E-DIALECT", "a grbl system command ($H, $X, $$, $J=...) is for the sender, not "
+                             "G-code: vcnc runs the G-code and has no grbl settings", col=text.index("$") + 1)
         block = expression_block(text)
         if block is None:
             try:
@@ -210,7 +214,8 @@ class Interpreter:
         messages = block.messages
         if any(m.__class__ is not str for m in messages):
             messages = tuple(m if m.__class__ is str else substitute(m[1], params) for m in messages)
-        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)))
+        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)),
+                       self.setup.dialect)
         if spec.__class__ is BlockError:
             raise spec
         self._execute(spec, vals, assigns, messages, line, text)

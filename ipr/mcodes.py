@@ -10,6 +10,7 @@ mode, coolant, G98/G99, tool length offset). M100..M199 run only when the machin
 """
 from __future__ import annotations
 
+from ipr.dialect import EXTRA_G, EXTRA_M
 from ipr.entities import Auxiliary
 from ipr.errors import BlockError, code_name
 
@@ -29,8 +30,15 @@ def _words(spec, vals) -> str:
 
 
 def execute_mcodes(st, spec, vals, out: list, line: int, setup) -> None:
-    """The recorded M-codes of a block and M70..M73, in LinuxCNC's order (before motion)."""
+    """The recorded M-codes of a block (a dialect's G-codes too) and M70..M73, in LinuxCNC's
+    order (before motion)."""
     m = spec.m
+    for letter in "GM":
+        code = (spec.g if letter == "G" else m).get(f"dialect_{letter.lower()}")
+        if code is not None:
+            what = (EXTRA_G if letter == "G" else EXTRA_M)[setup.dialect][code]
+            out.append(Auxiliary(line, code_name(letter, code / 10), f"{what} ({setup.dialect}) "
+                                 f"{_words(spec, vals)}".strip()))
     io = m.get("io")
     if io is not None:
         if io in (620, 630, 640, 650) and "P" not in spec.index:

@@ -93,7 +93,7 @@ class ModalState:
                  # ipr.offsets, ipr.modes, ipr.mcodes); `detour` is True where a plain block may not
                  # take ipr.plain's short path (cutter compensation, G93/G95, a rotated system)
                  "retract_r", "cycle", "g28", "g30", "coord_table", "rotation_deg", "tool_table",
-                 "g92_stored", "feed_mode", "css", "comp", "saved_modes", "detour")
+                 "g92_stored", "feed_mode", "css", "comp", "saved_modes", "detour", "spline_pq")
 
     def __init__(self, setup: Setup):
         self.pos = tuple(float(v) for v in setup.start_mm)
@@ -132,6 +132,7 @@ class ModalState:
         self.comp = None                # ipr.cutter_comp state, None = G40
         self.saved_modes = None         # M70 snapshot
         self.detour = False
+        self.spline_pq = None           # the last G5's P Q (ipr.splines)
 
 
 class Staged:

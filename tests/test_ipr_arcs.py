@@ -130,28 +130,42 @@ def test_inch_arc_is_converted_to_mm():
     assert arc.center == pytest.approx((0.0, 0.0, 0.0), abs=2e-6)
 
 
-@pytest.mark.parametrize("radius,off_mm,ok", [
-    (1.0, 0.0019, True), (1.0, 0.0021, False),          # 0.002 mm rules below 2 mm radius
-    (10.0, 0.0099, True), (10.0, 0.0101, False),        # 0.1 % of the radius above it
+@pytest.mark.parametrize("radius,off_mm,ok,moved", [
+    (1.0, 0.0019, True, False), (1.0, 0.0021, True, True),        # 0.002 mm keeps the centre
+    (10.0, 0.0099, True, False), (10.0, 0.0101, True, True),      # 0.1 % of the radius above it
+    (1.0, 0.028, True, True), (1.0, 0.0285, False, None),          # LinuxCNC: 0.0283 mm ...
+    (50.0, 0.049, True, False), (50.0, 0.051, False, None),         # ... or 0.1 % of r
+    (5000.0, 2.8, True, False), (5000.0, 2.9, False, None),         # ... up to 2.83 mm
 ])
-def test_end_point_tolerance(radius, off_mm, ok):
-    """End point off the circle by `off_mm` (radially): within max(0.002 mm, 0.1 % r) or error."""
+def test_end_point_tolerance(radius, off_mm, ok, moved):
+    """End point off the circle by `off_mm` (radially) on a quarter arc: rs274's limits; beyond
+    max(0.002 mm, 0.1 % r) the centre moves so that the circle passes through both ends."""
     end_r = radius + off_mm
     text = f"F60\nG0 X{radius:.6f} Y0\nG3 X0 Y{end_r:.6f} I{-radius:.6f} J0\n"
     if ok:
-        assert _arc(text).radius_mm == pytest.approx(radius)
+        arc = _arc(text)
+        r0 = math.dist(arc.start[:2], arc.center[:2])
+        assert math.dist(arc.end[:2], arc.center[:2]) == pytest.approx(r0, abs=1e-9 if moved else off_mm * 1.001)
+        assert (arc.center[:2] != (0.0, 0.0)) == moved
+        assert math.dist(arc.center[:2], (0.0, 0.0)) <= 2 * off_mm
     else:
         with pytest.raises(GCodeError) as info:
             ipr.parse_text(text)
         assert info.value.diagnostics[0].code == "E-ARC-RADIUS"
 
 
-def test_inch_tolerance_is_two_ten_thousandths():
-    ok = "G20 F6\nG0 X0.1 Y0\nG3 X0 Y0.10019 I-0.1 J0\n"
-    bad = "G20 F6\nG0 X0.1 Y0\nG3 X0 Y0.10021 I-0.1 J0\n"
-    assert _arc(ok).radius_mm == pytest.approx(2.54)
+def test_inch_tolerance():
+    """0.0002 inch keeps the centre; rs274's 0.00283 inch is the limit."""
+    assert _arc("G20 F6\nG0 X0.1 Y0\nG3 X0 Y0.10019 I-0.1 J0\n").center == (0.0, 0.0, 0.0)
+    assert _arc("G20 F6\nG0 X1 Y0\nG3 X0 Y1.0028 I-1 J0\n").center != (0.0, 0.0, 0.0)
     with pytest.raises(GCodeError):
-        ipr.parse_text(bad)
+        ipr.parse_text("G20 F6\nG0 X1 Y0\nG3 X0 Y1.0029 I-1 J0\n")
+
+
+def test_nearly_full_circle_off_the_circle_is_refused():
+    with pytest.raises(GCodeError) as info:
+        ipr.parse_text("G21 G0 X10 Y0\nG2 X10.025 Y0 I-5 J0 F100\n")
+    assert "spiral" in info.value.diagnostics[0].message
 
 
 def test_semicircle_radius_slightly_too_small_is_accepted():

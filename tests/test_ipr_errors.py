@@ -28,6 +28,7 @@ CASES = [
     ("G93 G1 X1 F10\nG1 X2", "E-FEED-MODE", 2, 1),
     ("G95 G1 X1 F0.1", "E-FEED-MODE", 1, 5),
     ("G0 X1\nM101", "E-MCODE-USER", 2, 1),
+    ("G21\n  $H", "E-DIALECT", 2, 3),
     ("G0 X1 M77", "E-MCODE-UNSUPPORTED", 1, 7),
     ("G0 X1 X2", "E-WORD-REPEATED", 1, 7),
     ("G0 G1 X1", "E-MODAL-GROUP", 1, 4),

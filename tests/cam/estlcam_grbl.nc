@@ -1,0 +1,19 @@
+(written for the test in the style of Estlcam's grbl output; dialect grbl)
+(Project: test)
+G21
+G90
+G94
+F1000
+S20000
+M03
+G00 Z5.0000
+G00 X0.0000 Y0.0000
+(No. 1: Engraving)
+G01 Z-0.5000 F300
+G01 X25.0000 Y0.0000 F1000
+G02 X30.0000 Y5.0000 I0.0000 J5.0000
+G01 X30.0000 Y20.0000
+G00 Z5.0000
+G00 X0.0000 Y0.0000
+M05
+M02

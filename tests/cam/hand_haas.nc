@@ -1,0 +1,23 @@
+%
+O00010 (hand-written Haas-style drilling and tapping, for the test; dialect haas)
+G20 G17 G40 G80 G90 G54
+T1 M06 (SPOT AND DRILL)
+G00 G90 G54 X0. Y0. S2000 M03
+G43 H01 Z1. M08
+G83 G99 X0.5 Y0.5 Z-.5 Q.1 R.1 F5.
+X1.
+X1.5
+G80
+G00 Z1. M09
+T2 M06 (TAP)
+G00 G90 G54 X0.5 Y0.5 S500 M03
+G43 H02 Z1.
+G84 G99 Z-.4 R.1 F25.
+X1.
+X1.5
+G80 G00 Z1.
+G28 G91 Z0. M05
+G28 Y0.
+M31
+M30
+%
