@@ -119,14 +119,14 @@ class Controller:
             raise ProgramRejected([f"{path}: cannot read the program: {err.strerror or err}"]) from None
         motions = [e for e in program.entities if isinstance(e, MOTION_TYPES)]
         start = np.array(start_position(program))
-        reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
+        reasons = [f"{program.file}:{line}:1: error[E-TRAVEL]: {why}"
                    for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
         end_gap = nurbs_end_gap_mm(self.config)
-        reasons += [f"{program.file}:{e.line}: error[E-NURBS-PATH]: {why}" for e in motions
+        reasons += [f"{program.file}:{e.line}:1: error[E-NURBS-PATH]: {why}" for e in motions
                     if isinstance(e, Nurbs) and (why := planning_problem(e, end_gap)) is not None]
         outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
         if outside.any():
-            reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "
+            reasons.insert(0, f"{program.file}:0:1: error[E-TRAVEL]: the start position {start.tolist()} mm "
                               f"is outside the travel")
         if reasons:
             raise ProgramRejected(reasons)
