@@ -5,7 +5,7 @@
 For each program and acceleration mode it runs the feed stage and interpolators
 (`plan_periods`) over the checked program and hashes, over all periods in order, each
 field of the period stream (pos, inc, feed, limit, line) and the non-motion events
-with the period count at which each arrives. It also hashes the bytes `vcnc fit`
+with the period count at which each arrives (kind, line and content). It also hashes the bytes `vcnc fit`
 writes for programs/finish_g01.nc, and what `vcnc surface` (IGES, its time stamp
 masked) and `vcnc toolpath` write for a synthetic bump digitisation
 (tests/surface_cases.py). The CLI runs in this interpreter (machine.cli.main), never a `vcnc` from PATH.
@@ -40,6 +40,7 @@ STREAM_CASES = [  # (name, program, machine file)
 ]
 SLOW = {"lhchips4/scurve", "fit/finish_g01"}
 FIELDS = ("pos_mm", "inc_blu", "feed_mm_s", "limit", "line")
+EVENT_FIELDS = ("text", "rpm", "direction", "mist", "flood", "tool", "optional", "seconds")
 
 
 def _plan_periods():
@@ -65,8 +66,14 @@ def stream_hashes(program: Path, machine: Path, accel_mode: str) -> dict:
                 digests[f].update(getattr(item, f).tobytes())
             periods += len(item)
         else:
-            digests["events"].update(f"{periods}:{item!r}\n".encode())
+            digests["events"].update(f"{periods}:{_event(item)}\n".encode())
     return {"periods": periods, **{f: d.hexdigest() for f, d in digests.items()}}
+
+
+def _event(item) -> str:
+    """An event by its kind, line and what it says (not its repr: entities gain fields)."""
+    said = {k: getattr(item, k) for k in EVENT_FIELDS if hasattr(item, k)}
+    return f"{type(item).__name__}:{getattr(item, 'line', None)}:{said}"
 
 
 def _cli(*args: str) -> None:

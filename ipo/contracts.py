@@ -18,7 +18,6 @@ periods; nothing per period is a Python object.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
@@ -32,12 +31,6 @@ class Steps:
     evals: np.ndarray  # (k,) curve evaluations spent in each period (0 for lines and arcs)
     done: bool  # the entity's end was reached by the last period
     carry_mm: float  # unused part of the last period's step when done, else 0
-
-
-class Stepper(Protocol):
-    done: bool
-
-    def advance(self, steps_mm: np.ndarray) -> Steps: ...
 
 
 # Why the machine slowed down: one code per period in PeriodBatch.limit.

@@ -4,7 +4,7 @@
 - `drive`, `servo`, `extents`: the simulated drive (limits, statistics, servo lag) and the
   travel check of the whole path.
 - `realtime`: pacing at the interpolation period, with hold, override and stop.
-- `trace`, `plot`: per-period recording and its plots.
+- `trace`, `plot`, `report/`: per-period recording, its plots and the HTML report.
 - `grbl/`: the link to a grbl 1.1 board (NURBS sent as planned G1 segments).
 - `increments/`: the increment protocol, its link and a receiver.
 - `cli`, `commands/`: the `vcnc` command line, one module per subcommand.

@@ -8,10 +8,10 @@ speed error at the end of the curve.
 
 A chord error that changes from one period to the next is an acceleration error of
 (its change) / T^2: 0.01 um per period is 10 mm/s^2 at T = 1 ms. So the stepper solves each
-chord to CHORD_TOL_PCT (its fixed-iteration mode was 0.6 % short in sharp turns, with the
+chord to CHORD_TOL_PCT (a fixed iteration count falls 0.6 % short in sharp turns, the
 shortfall changing by 0.02 um a period), and the driver's corrections never step: the gain
 moves linearly to its new value over a chunk, and the lag is taken up by a sin^2 bump that
-starts and ends at zero (the earlier even spread changed the speed at every resync, up to
+starts and ends at zero (spreading it evenly changes the speed at every resync, up to
 19 % over the acceleration limit on random curves). A Taylor update's du is the first guess
 of that solve (ipo.interp.steppers); constant du cannot follow a feed and is refused by the planner.
 """

@@ -20,7 +20,7 @@ below any BLU, in the direction of the limit tangent), and the rest as a NURBS.
 
 Left out: a cusp where the derivative vanishes inside a curve (p coincident control points of
 a curve of degree >= 2) is not cut; the NURBS table rejects it with its "vanishing derivative"
-error, saying where.
+error (E-NURBS-PATH), saying where.
 """
 from __future__ import annotations
 

@@ -18,21 +18,6 @@ def _load_program(path):
         raise click.ClickException(str(err)) from None
 
 
-def _grbl_job(path, config, state, numbered=False, frame_mm=None):
-    """The whole stream for a machine in `state`, made before a byte goes out, so a
-    program grbl cannot take fails here and not halfway through."""
-    from ipr.entities import GCodeError
-    from machine.grbl.job import build_job
-    from machine.grbl.program import StreamProgramError
-
-    try:
-        return build_job(path, config, state, numbered=numbered, frame_mm=frame_mm)
-    except GCodeError as err:
-        raise click.ClickException(str(err)) from None
-    except (StreamProgramError, ValueError) as err:
-        raise click.ClickException(str(err)) from None
-
-
 def _stdout_is_terminal() -> bool:
     return sys.stdout.isatty()
 
@@ -51,9 +36,10 @@ def _dry_run(protocol, file, program, config, resume_from) -> None:
         for seq, inc in enumerate(frame_chunks(batches, F.MAX_PERIODS)):
             out.write(F.data_frame(seq, np.asarray(inc)))
         return
+    from machine.commands.stream_grbl import grbl_job
     from machine.grbl.job import machine_at_zero
 
-    job = _grbl_job(file, config, machine_at_zero())
+    job = grbl_job(file, config, machine_at_zero())
     lines = job.lines
     if resume_from is not None:
         if resume_from > len(lines):

@@ -55,7 +55,7 @@ def status_text(st, acknowledged: int, total: int, estimate=None, link=None) -> 
     if st is not None:
         pos = st.wpos or st.mpos
         state = st.state + (f":{st.substate}" if st.substate is not None else "")
-        text += f"  {state:<7} X{pos[0]:10.3f} Y{pos[1]:10.3f} Z{pos[2]:10.3f}"
+        text += f"  {state:<7} X{pos[0]:10.3f} Y{pos[1]:10.3f} Z{pos[2]:10.3f}" + ("" if st.wpos else " (machine)")
         if st.line is not None:
             text += f"  Ln {st.line}"
         if st.planner_free is not None:
@@ -68,6 +68,21 @@ def status_text(st, acknowledged: int, total: int, estimate=None, link=None) -> 
         running = st.line if st is not None and st.line is not None else acknowledged
         text += f"  remaining ~{estimate.remaining_s(running):.0f} s"
     return text
+
+
+def grbl_job(path, config, state, numbered=False, frame_mm=None):
+    """The whole stream for a machine in `state`, made before a byte goes out, so a
+    program grbl cannot take fails here and not halfway through."""
+    from ipr.entities import GCodeError
+    from machine.grbl.job import build_job
+    from machine.grbl.program import StreamProgramError
+
+    try:
+        return build_job(path, config, state, numbered=numbered, frame_mm=frame_mm)
+    except GCodeError as err:
+        raise click.ClickException(str(err)) from None
+    except (StreamProgramError, ValueError) as err:
+        raise click.ClickException(str(err)) from None
 
 
 def _install_stop_signals(link) -> dict:
@@ -118,8 +133,6 @@ def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, u
     from machine.grbl.link import GrblLink, LinkError
     from machine.grbl.resume import ResumeError
 
-    from machine.commands.stream import _grbl_job
-
     console = Console(stderr=True, soft_wrap=True)
     ledger_path = ledger_path or default_path(file)
     session = None
@@ -144,7 +157,7 @@ def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, u
         numbered = session.header["numbered"] if session is not None else link.line_numbers
         # a resumed stream means what the first session's did (same start), written in the frame
         # grbl has now (a reset clears G92 and the tool length offset)
-        job = _grbl_job(file, config, start, numbered, info.state.wco_mm)
+        job = grbl_job(file, config, start, numbered, info.state.wco_mm)
         errors, warns = option_problems(job.lines, link.options)
         if errors:
             raise click.ClickException("; ".join(errors))

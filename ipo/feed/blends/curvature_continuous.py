@@ -12,8 +12,8 @@ down inside, where the planner's curvature caps see it as a smooth curve. C1, C2
 search for the highest corner speed under v^2 kappa <= A, v^3 kappa^2 <= J and
 v^3 |dkappa/ds| <= J gave C1 = 0.6, C2 = 0.15 to 0.35 at 30 and 90 degrees; of those and
 their neighbours (C1 0.4 to 0.65, C2 0.1 to 0.3), 0.55 / 0.2 ran g1_lhchips4 fastest in
-S-curve mode (409 s against 429 s for 0.6 / 0.25 and 432 s for 0.5 / 0.1, measured before
-g2_corners kept chained arcs).
+S-curve mode (409 s against 429 s for 0.6 / 0.25 and 432 s for 0.5 / 0.1, measured with every
+line-line corner a candidate, chained arcs included).
 By symmetry the point nearest V is C(1/2), at d K sin(theta / 2) / 16 from it with
 K = 1 + 5 C1 + 10 C2 (the Bernstein weights 1, 5, 10 / 32 of each side's points).
 """
