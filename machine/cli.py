@@ -20,6 +20,7 @@ COMMANDS = {
     "run": "machine.commands.run",
     "plot": "machine.commands.plot",
     "stream": "machine.commands.stream",
+    "grbl": "machine.commands.grbl",
     "fit": "machine.commands.fit",
     "compare": "machine.commands.compare",
     "surface": "machine.commands.surface",
