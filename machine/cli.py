@@ -24,6 +24,7 @@ COMMANDS = {
     "fit": "machine.commands.fit",
     "compare": "machine.commands.compare",
     "surface": "machine.commands.surface",
+    "surface-report": "machine.commands.surface_report",
     "toolpath": "machine.commands.toolpath",
 }
 
