@@ -20,6 +20,7 @@ from typing import Any, Literal
 METHODS = ("recursive", "taylor1", "taylor2")
 ACCEL_MODES = ("trapezoid", "scurve")
 SERVO_MODELS = ("none", "lag", "pd")
+TOOL_SHAPES = ("flat", "ball", "bull")
 AXIS_NAMES = ("x", "y", "z")
 WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60)) + ("G59.1", "G59.2", "G59.3")
 DIALECTS = ("linuxcnc", "fanuc", "haas", "mach3", "grbl")
@@ -41,6 +42,10 @@ RANGES: dict[str, tuple[float, float, str]] = {
     "tools.*.length_mm": (-1000.0, 1000.0, "up to 1 m either way"),
     "tools.*.ball_radius_mm": (0.0, 100.0, "0 (flat end mill) to 100 mm"),
     "tools.*.flutes": (1, 100, "1 to 100"),
+    "tools.*.diameter_mm": (0.0, 200.0, "0 (from ball_radius_mm) to 200 mm"),
+    "tools.*.corner_radius_mm": (0.0, 100.0, "0 to 100 mm"),
+    "stock.min_mm": (-1e5, 1e5, "within 100 m of the origin"),
+    "stock.max_mm": (-1e5, 1e5, "within 100 m of the origin"),
     "finishing.pick_feed_mm": (1e-4, 100.0, "0.1 um to 100 mm (and below the ball diameter)"),
     "finishing.roughness_target_um": (1e-3, 1e3, "1 nm to 1 mm"),
     "servo.time_constant_s": (0.0, 1.0, "0 to 1 s"),
@@ -82,6 +87,9 @@ class Tool:
     ball_radius_mm: float = 0.0  # 0 for a flat end mill
     flutes: int = 2
     radius_mm: float = 0.0       # cutter radius for G41/G42 (D)
+    shape: str = ""  # flat | ball | bull; "" = ball if ball_radius_mm > 0, else flat
+    diameter_mm: float = 0.0  # 0 = 2 * ball_radius_mm
+    corner_radius_mm: float = 0.0  # bull nose only
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,6 +131,7 @@ class MachineConfig:
     subroutine_path: tuple[str, ...] = ()
     max_loop_iterations: int = 10_000_000
     m99_repeat: bool = False
+    stock_mm: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None  # (min, max), work coords
 
 
 def _take(table: dict, key: str, prefix: str) -> Any:
@@ -180,16 +189,56 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
         if not isinstance(t, dict):
             raise ConfigError(f"tools.{key}", "must be a table")
-        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "radius_mm"}, prefix)
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "radius_mm", "shape", "diameter_mm",
+                      "corner_radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
         if isinstance(flutes, bool) or not isinstance(flutes, int):
             raise ConfigError(prefix + "flutes", f"must be an integer, got {flutes!r}")
         _number(flutes, prefix + "flutes")
-        tools[int(key)] = Tool(_number(t.get("length_mm", 0.0), prefix + "length_mm"),
-                               _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm",
-                                       nonneg=True), flutes,
-                               _number(t.get("radius_mm", 0.0), prefix + "radius_mm", nonneg=True))
+        tools[int(key)] = _tool_shape(Tool(
+            _number(t.get("length_mm", 0.0), prefix + "length_mm"),
+            _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm", nonneg=True), flutes,
+            _number(t.get("radius_mm", 0.0), prefix + "radius_mm", nonneg=True),
+            _choice(t["shape"], prefix + "shape", TOOL_SHAPES) if "shape" in t else "",
+            _number(t.get("diameter_mm", 0.0), prefix + "diameter_mm", nonneg=True),
+            _number(t.get("corner_radius_mm", 0.0), prefix + "corner_radius_mm", nonneg=True)), prefix)
     return tools
+
+
+def _tool_shape(tool: Tool, prefix: str) -> Tool:
+    """Resolve the shape: ball_radius_mm alone is a ball (the old table), a ball's radius and diameter agree."""
+    shape = tool.shape or ("ball" if tool.ball_radius_mm > 0 else "flat")
+    diameter = tool.diameter_mm or 2.0 * tool.ball_radius_mm
+    if shape == "ball":
+        if tool.ball_radius_mm and tool.diameter_mm and abs(tool.diameter_mm - 2 * tool.ball_radius_mm) > 1e-9:
+            raise ConfigError(prefix + "diameter_mm", f"a ball's diameter is twice ball_radius_mm "
+                                                      f"({tool.ball_radius_mm}), got {tool.diameter_mm}")
+        if diameter <= 0:
+            raise ConfigError(prefix + "diameter_mm", "a ball needs diameter_mm or ball_radius_mm")
+        return dataclasses.replace(tool, ball_radius_mm=diameter / 2.0, shape=shape, diameter_mm=diameter)
+    if tool.ball_radius_mm > 0:
+        raise ConfigError(prefix + "ball_radius_mm", f"only a ball has a ball radius (shape = {shape!r})")
+    if shape == "bull" and not 0 < tool.corner_radius_mm <= diameter / 2.0:
+        raise ConfigError(prefix + "corner_radius_mm", f"a bull nose needs 0 < corner_radius_mm <= diameter_mm/2 "
+                                                       f"({diameter / 2.0}), got {tool.corner_radius_mm}")
+    if shape == "flat" and tool.corner_radius_mm:
+        raise ConfigError(prefix + "corner_radius_mm", "a flat end mill has no corner radius (use shape = 'bull')")
+    return dataclasses.replace(tool, shape=shape, diameter_mm=diameter)
+
+
+def _stock(table: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    if not isinstance(table, dict):
+        raise ConfigError("stock", "must be a table with min_mm and max_mm")
+    _no_extra(table, {"min_mm", "max_mm"}, "stock.")
+    corners = []
+    for key in ("min_mm", "max_mm"):
+        v = _take(table, key, "stock.")
+        if not isinstance(v, list) or len(v) != 3:
+            raise ConfigError("stock." + key, f"must be a list of 3 numbers, got {v!r}")
+        corners.append(tuple(_number(c, "stock." + key) for c in v))
+    if not all(lo < hi for lo, hi in zip(*corners)):
+        raise ConfigError("stock.max_mm", f"must exceed min_mm {list(corners[0])} on every axis, got {list(corners[1])}")
+    return corners[0], corners[1]
 
 
 def _work_offsets(table: Any) -> dict[str, tuple[float, float, float]]:
@@ -275,7 +324,7 @@ def config_from_dict(data: dict) -> MachineConfig:
     """Validate a parsed TOML document into a MachineConfig."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
            "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
-           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes"}
+           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes", "stock"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -303,6 +352,7 @@ def config_from_dict(data: dict) -> MachineConfig:
         g30_mm=_position(data.get("g30_mm", [0.0, 0.0, 0.0]), "g30_mm"),
         user_mcodes=_user_mcodes(data.get("user_mcodes", {})),
         **_interpreter_keys(data),
+        stock_mm=_stock(data["stock"]) if "stock" in data else None,
     )
 
 

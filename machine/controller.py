@@ -182,6 +182,9 @@ class Controller:
                     messages.append(f"line {item.line}: {item.text}")
                     self.on_event(item)
                 elif isinstance(item, (Spindle, Coolant, ToolChange, Auxiliary)):
+                    if isinstance(item, Spindle):
+                        sign = {"cw": 1.0, "ccw": -1.0}.get(item.direction, 0.0)
+                        drive.spindle_rad_s = sign * item.rpm * 2.0 * math.pi / 60.0
                     self.on_event(item)
             else:
                 if player is not None:

@@ -16,6 +16,8 @@ measurements are those a drive could make from its own command stream:
   chord and the estimate says nothing (at 1 µm, 1 ms that is below 8 mm/s);
 - with a servo model, the actual positions and the contour error.
 A travel-limit violation stops the drive at the last period inside the limits.
+The rows handed to the sinks also carry spindle_rad, the spindle angle at the end of each
+period (from the M3/M4 speed the controller passes on), for receivers that model the teeth.
 """
 from __future__ import annotations
 
@@ -183,6 +185,8 @@ class Drive:
         self.stats = DriveStats(max_contour_error_mm=0.0 if servo else None)
         self.line = 0
         self.feed_mm_s = 0.0
+        self.spindle_rad_s = 0.0  # signed: M3 (cw) positive; set by the controller as the program's M3/M4/M5 pass
+        self.spindle_rad = 0.0  # spindle angle at the end of the last period, in [0, 2 pi)
         self._h = limits.stencil_periods()
         self._tail = self.position_blu[None, :].copy()  # the last positions the stencils reach back to
         self._peak = np.zeros(11)
@@ -231,8 +235,11 @@ class Drive:
                 f"line {int(batch.line[k])}: batch pos_mm {batch.pos_mm[k]} is not the integrated "
                 f"position {cmd_mm[k]} (BLU {blu} mm)")
         self._measure(pos)
-        rows = {"t_s": self.t_s + self.limits.period_s * np.arange(1, n + 1), "pos_mm": cmd_mm,
-                "inc_blu": inc, "feed_mm_s": batch.feed_mm_s, "limit": batch.limit, "line": batch.line}
+        steps = np.arange(1, n + 1)
+        spindle = self.spindle_rad + self.spindle_rad_s * self.limits.period_s * steps
+        rows = {"t_s": self.t_s + self.limits.period_s * steps, "pos_mm": cmd_mm,
+                "inc_blu": inc, "feed_mm_s": batch.feed_mm_s, "limit": batch.limit, "line": batch.line,
+                "spindle_rad": spindle}
         if self.servo is not None:
             actual, contour = self.servo.follow(cmd_mm)
             self.stats.max_contour_error_mm = max(self.stats.max_contour_error_mm, float(contour.max()))
@@ -241,6 +248,7 @@ class Drive:
         for sink in self.sinks:
             sink.write(rows)
         self.position_blu = pos[-1].copy()
+        self.spindle_rad = float(spindle[-1] % (2.0 * math.pi))
         self.stats.periods += n
         self.line = int(batch.line[-1])
         self.feed_mm_s = float(batch.feed_mm_s[-1])

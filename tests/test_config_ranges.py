@@ -69,6 +69,8 @@ def machine_file(tmp_path: Path, pattern: str, value) -> Path:
                                                                                      "work_offsets_mm.G54")
     if key.startswith("finishing."):
         data["finishing"] = dict(FINISHING)
+    if key.startswith("stock."):
+        data["stock"] = {}
     if key == "servo.time_constant_s" and value > 0:
         data["servo"]["model"] = "lag"
     if key == "servo.kp_1_s" and value > 0:
@@ -77,12 +79,23 @@ def machine_file(tmp_path: Path, pattern: str, value) -> Path:
         data["accel_mode"] = "scurve"
     if key == "tools.*.ball_radius_mm".replace("*", "1") and value == 0:
         data.pop("finishing", None)
+    if key in ("tools.1.diameter_mm", "tools.1.corner_radius_mm"):  # a flat or bull tool's sizes
+        tool = data["tools"]["1"]
+        tool.pop("ball_radius_mm", None)
+        corner = key.endswith("corner_radius_mm")
+        tool["shape"] = "bull" if corner and value != 0 else "flat"
+        tool["diameter_mm"] = (min(2.0 * value, 200.0) if math.isfinite(value) and value > 3.0 else 6.0) if corner \
+            else value
     *path, last = key.split(".")
     table = data
     for p in path:
         table = table[p]
     if key.startswith("work_offsets_mm"):
         table[last] = [value, 0.0, 0.0]
+    elif key.startswith("stock."):
+        table[last] = [value] * 3
+        other = "max_mm" if last == "min_mm" else "min_mm"
+        table[other] = [value + (1.0 if other == "max_mm" else -1.0)] * 3
     else:
         table[last] = value
     if key == "axes.x.min_mm" and value == value and -1e5 <= value + 1.0 <= 1e5:
@@ -102,7 +115,8 @@ def machine_file(tmp_path: Path, pattern: str, value) -> Path:
 def _edge_cases():
     for pattern, (low, high, _) in RANGES.items():
         for value in (low, high):
-            if (pattern, value) in (("axes.*.min_mm", high), ("axes.*.max_mm", low)):
+            if (pattern, value) in (("axes.*.min_mm", high), ("axes.*.max_mm", low), ("stock.min_mm", high),
+                                    ("stock.max_mm", low)):
                 continue  # a travel of no length: refused by max_mm > min_mm (test_config)
             yield pytest.param(pattern, value, id=f"{pattern}={value:g}")
 

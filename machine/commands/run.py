@@ -161,14 +161,23 @@ def _write_pictures(digest, plot_file, report_file, program, result, machine_fil
 @click.option("--realtime", is_flag=True, help="Pace at the period; keys: space hold/resume, +/- override, s stop.")
 @click.option("--optional-stop", is_flag=True, help="Honour M1 optional stops.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+@click.option("--stock", "stock_text", help="Cut a virtual workpiece: stock box XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm, "
+              "work coordinates; default: the machine file's [stock]).")
+@click.option("--tool", "tool", type=int, help="The tool cutting the workpiece from the start (default: the "
+              "program's first T… M6, else the [finishing] tool).")
+@click.option("--grid-um", type=float, help="Z-map spacing in um (default: from the tool and the chord tolerance).")
+@click.option("--surface", "surface_files", multiple=True, type=OutputPath((".npz", ".stl", ".png")),
+              help="Write the machined surface: .npz (x_mm, y_mm, z_mm, gouge_line), .stl or .png; repeatable.")
 def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, report_file, realtime,
-            optional_stop, as_json):
+            optional_stop, as_json, stock_text, tool, grid_um, surface_files):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.report.digest import DigestSink
     from machine.trace import open_writer
+    from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
 
     config = load_machine(machine_file)
+    cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config)
     if period_ms is not None:
         from ipo.config import ConfigError, with_period
 
@@ -194,12 +203,16 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         sys.exit(1)
     for warning in program.warnings:
         click.echo(str(warning), err=True)
+    workpiece = start_workpiece(program, config, stock_text, tool, grid_um) if cutting else None
+    if workpiece is not None:
+        shown = controller.on_event
+        controller.on_event = lambda e: (workpiece.event(e), shown(e))
 
     servo = config.servo.model != "none"
     meta = dict(controller.limits.meta(), file=str(file))
     writer = open_writer(trace_file, meta, servo) if trace_file else None
     digest = DigestSink(meta, servo=servo) if plot_file or report_file else None  # memory bounded, unlike a trace
-    controller.sinks = [s for s in (writer, digest) if s is not None]
+    controller.sinks = [s for s in (writer, digest, workpiece) if s is not None]
     try:
         with _Compiling() as compiling:
             if realtime:
@@ -215,6 +228,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
                    f"(first run after an install or a change; cached for the next runs)", err=True)
     if result.state == "completed" and result.periods == 0:
         click.echo(f"{file}: the program commands no motion; nothing moved", err=True)
+    if workpiece is not None:
+        finish_workpiece(workpiece, result, surface_files)
     if result.state != "completed":
         where = f"line {result.line}" if result.periods else "the start, before the first move"
         click.echo(f"{file}: {result.state} at {where}, position "

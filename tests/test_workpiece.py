@@ -1,0 +1,186 @@
+"""The virtual workpiece against analytic results: scallops, plunges, slots, chord facets."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from ipo.config import Tool, default_config
+from machine.controller import Controller, start_position
+from machine.workpiece.build import build_workpiece
+from machine.workpiece.kernels import envelope
+
+F32_MM = 2e-6  # the heights are stored in float32: 1 nm steps at these heights, 2 nm allowed
+
+
+def cut(tmp_path, text: str, stock: str, grid_um: float, *, tools=None, tool=None, **machine):
+    """Run `text` in the controller with a workpiece attached; the machined Surface."""
+    config = dataclasses.replace(default_config(), **machine)
+    if tools is not None:
+        config = dataclasses.replace(config, tools=tools)
+    path = tmp_path / "p.nc"
+    path.write_text(text)
+    ctl = Controller(config)
+    program = ctl.check(path)
+    wp, _ = build_workpiece(program, config, start_position(program), stock_text=stock, tool=tool,
+                            grid_um=grid_um)
+    ctl.sinks = [wp]
+    ctl.on_event = wp.event
+    result = ctl.run(program)
+    assert result.state == "completed", result.fault
+    return wp.surface()
+
+
+def test_envelope_is_the_minimum_over_the_segment():
+    """Closed forms (ball, flat) and the bisection (bull) against a dense sampling of t."""
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 1.0, 100001)
+    for core, corner in ((0.0, 3.0), (2.0, 0.0), (1.5, 1.0)):
+        radius = core + corner
+        for _ in range(60):
+            p0 = rng.uniform(-1, 1, 3)
+            p1 = p0 + rng.normal(0, 1, 3) * rng.choice([0.01, 0.3, 3.0])
+            q = p0[:2] + rng.uniform(-radius - 0.5, radius + 0.5, 2)
+            xy = p0[:2] + t[:, None] * (p1[:2] - p0[:2])
+            rho = np.hypot(*(q - xy).T)
+            d = rho - core
+            h = np.where(rho <= core, 0.0, np.where(d > corner, np.inf,
+                                                    corner - np.sqrt(np.maximum(corner**2 - d**2, 0.0))))
+            ref = np.min(p0[2] + t * (p1[2] - p0[2]) + h)
+            got = envelope(q[0], q[1], *p0, *p1, core, corner)
+            if np.isinf(ref):
+                assert np.isinf(got) or got >= p0[2] - 1e-9  # a grazing touch between samples
+                continue
+            assert ref - 2e-4 <= got <= ref + 1e-12
+
+
+def test_ball_raster_leaves_the_classical_scallop(tmp_path):
+    r, s, g_um = 3.0, 0.5, 5.0
+    lines = ["G21 G90 G94 G64 T1 M6 S10000 M3", "G0 X0 Y1 Z1", "G1 Z-1 F3000"]
+    for k in range(9):
+        y = 1 + k * s
+        lines += [f"G1 X8 Y{y:g}" if k % 2 == 0 else f"G1 X0 Y{y:g}", f"G1 Y{y + s:g}" if k < 8 else ""]
+    text = "\n".join(ln for ln in lines if ln) + "\nG0 Z5\nM2\n"
+    surf = cut(tmp_path, text, "0,0,-5,8,6,0", g_um)
+    ix = (surf.x_mm > 3) & (surf.x_mm < 5)
+    iy = (surf.y_mm >= 2.0) & (surf.y_mm <= 4.0)
+    z = surf.z_mm[np.ix_(iy, ix)]
+    h = r - math.sqrt(r * r - (s / 2) ** 2)  # the classical scallop
+    measured = float(np.median(z.max(axis=0) - z.min(axis=0)))
+    # the cusp lies within g/2 of a node, where the surface's slope is (s/2)/r
+    assert abs(measured - h) <= (s / 2) / r * (g_um / 2000) + F32_MM, (measured, h)
+    assert np.allclose(z.min(), -1.0, atol=F32_MM)
+
+
+def test_flat_plunge_leaves_its_exact_disc(tmp_path):
+    tools = {2: Tool(shape="flat", diameter_mm=4.0, flutes=2)}
+    text = "G21 G90 G94 T2 M6\nG0 X5 Y5 Z1\nG1 Z-2 F300\nG0 Z5\nM2\n"
+    surf = cut(tmp_path, text, "0,0,-5,10,10,0", 20.0, tools=tools)
+    X, Y = np.meshgrid(surf.x_mm, surf.y_mm)
+    rho = np.hypot(X - 5, Y - 5)
+    clear = np.abs(rho - 2.0) > 1e-6
+    assert np.all(surf.z_mm[(rho < 2.0) & clear] == -2.0)
+    assert np.all(surf.z_mm[(rho > 2.0) & clear] == 0.0)
+    assert set(np.unique(surf.line[rho < 2.0])) == {3}
+
+
+def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
+    tools = {3: Tool(shape="flat", diameter_mm=4.0, flutes=2), 1: Tool(ball_radius_mm=3.0)}
+    text = "G21 G90 G94 T3 M6\nG0 X2 Y5 Z1\nG1 Z-1 F300\nX8\nG0 Z5\nT1 M6\nG0 X2 Y12\nG1 Z-1\nX8\nG0 Z5\nM2\n"
+    g_mm = 0.01
+    surf = cut(tmp_path, text, "0,0,-5,10,16,0", g_mm * 1000, tools=tools)
+    col = surf.z_mm[:, np.argmin(np.abs(surf.x_mm - 5.0))]
+    flat = (surf.y_mm < 9) & (col < 0)
+    assert abs(np.count_nonzero(flat) * g_mm - 4.0) <= g_mm
+    assert np.all(col[flat] == -1.0)
+    # the ball's slot 1 mm deep: width 2 sqrt(2 r d - d^2)
+    ball = (surf.y_mm > 9) & (col < 0)
+    assert abs(np.count_nonzero(ball) * g_mm - 2 * math.sqrt(2 * 3.0 * 1.0 - 1.0)) <= g_mm
+
+
+RHO, TIP_CENTRE = 20.0, (10.0, 3.0, 18.0)  # the tip's circle in the XZ plane; the bowl is its lower 60 degrees
+
+
+def _bowl_deviation_um(surf, r=3.0):
+    """Radial distance of the machined profile at y = 3 inside the ideal bowl (ball along the exact circle)."""
+    j = int(np.argmin(np.abs(surf.y_mm - TIP_CENTRE[1])))
+    keep = (surf.x_mm > 3.0) & (surf.x_mm < 17.0)
+    x, z = surf.x_mm[keep], surf.z_mm[j, keep]
+    cx, cz = TIP_CENTRE[0], TIP_CENTRE[2] + r  # the ball centres' circle: same radius, r higher
+    return ((RHO + r) - np.hypot(x - cx, z - cz)) * 1e3
+
+
+def _bowl_polygon(n: int) -> str:
+    a = np.linspace(-2 * math.pi / 3, -math.pi / 3, n + 1)
+    cx, y, cz = TIP_CENTRE
+    pts = [f"X{cx + RHO * math.cos(t):.6f} Z{cz + RHO * math.sin(t):.6f}" for t in a]
+    return "\n".join(["G21 G90 G94 G64 T1 M6 S10000 M3", f"G0 {pts[0]} Y{y:g}", "G1 F1200 " + pts[0]]
+                     + [f"G1 {p}" for p in pts[1:]] + ["G0 Z25", "M2", ""])
+
+
+def test_g01_polygon_of_a_circle_leaves_facets_of_its_sagitta(tmp_path):
+    n = 17
+    sagitta_um = RHO * (1 - math.cos(math.pi / 3 / n / 2)) * 1e3
+    surf = cut(tmp_path, _bowl_polygon(n), "0,0,-6,20,6,0", 10.0, g64_blend_tol_mm=0.0)
+    dev = _bowl_deviation_um(surf)
+    # BLU rounding of the commanded positions moves the swept segments by up to ~0.7 um
+    assert abs(dev.max() - sagitta_um) <= 1.0, (dev.max(), sagitta_um)
+    assert abs(dev.min()) <= 1.0
+
+
+def test_the_same_circle_as_nurbs_leaves_no_facets(tmp_path):
+    cx, y, cz = TIP_CENTRE
+    end_z = cz - RHO * math.sin(math.pi / 3)
+    mid_z = cz - RHO / math.cos(math.pi / 6)
+    text = "\n".join(["G21 G90 G94 G64 T1 M6 S10000 M3", f"G0 X0 Y{y:g} Z{end_z:.6f}",
+                      f"G06.2 P3 K0 X0 Y{y:g} Z{end_z:.6f} R1 F1200",
+                      f"K0 X{cx:g} Z{mid_z:.6f} R{math.cos(math.pi / 6):.9f}",
+                      f"K0 X20 Z{end_z:.6f} R1", "K1", "K1", "K1", "G0 Z25", "M2", ""])
+    surf = cut(tmp_path, text, "0,0,-6,20,6,0", 10.0)
+    dev = _bowl_deviation_um(surf)
+    config = default_config()
+    floor_um = (config.blu_mm + config.chord_tol_mm) * 1e3  # BLU rounding and the per-period chords
+    assert dev.max() - dev.min() <= floor_um, (dev.min(), dev.max())
+
+
+def test_the_period_rows_carry_the_spindle_angle(tmp_path):
+    from machine.trace import MemoryTrace
+
+    path = tmp_path / "s.nc"
+    path.write_text("G21 G90 G94 G0 X0 Y0 Z1\nS12500 M3\nG1 X5 F600\nM5\nG1 X6\nM4 S6000\nG1 X7\nM2\n")
+    sink = MemoryTrace({})
+    ctl = Controller(default_config(), sinks=[sink])
+    ctl.run(ctl.check(path))
+    tr = sink.close()
+    step = np.diff(np.unwrap(tr["spindle_rad"]))
+    line = tr["line"][1:]
+    period_s = default_config().period_s
+    assert np.allclose(step[line == 3], 2 * math.pi * 12500 / 60 * period_s)
+    assert np.allclose(step[line == 5], 0.0)
+    assert np.allclose(step[line == 7], -2 * math.pi * 6000 / 60 * period_s)
+
+
+def test_run_writes_the_surface_files(tmp_path):
+    from click.testing import CliRunner
+
+    from machine.cli import main
+    from machine.workpiece.surface_file import load_npz
+
+    prog = tmp_path / "plunge.nc"
+    prog.write_text("G21 G90 G94 T1 M6\nG0 X5 Y5 Z1\nG1 Z-1 F300\nG0 Z5\nM2\n")
+    out, stl = tmp_path / "s.npz", tmp_path / "s.stl"
+    res = CliRunner().invoke(main, ["run", str(prog), "--stock", "0,0,-3,10,10,0", "--grid-um", "100",
+                                    "--surface", str(out), "--surface", str(stl), "--json"])
+    assert res.exit_code == 0, res.output
+    surf, gouge = load_npz(out)
+    assert surf.z_mm.shape == (len(surf.y_mm), len(surf.x_mm)) == (101, 101) and gouge.shape == surf.z_mm.shape
+    assert surf.z_mm.min() == pytest.approx(-1.0, abs=F32_MM)  # the ball's tip
+    i = np.argmin(np.abs(surf.x_mm - 7.0))  # 2 mm off the axis: r - sqrt(r^2 - 4) above the tip
+    assert surf.z_mm[np.argmin(np.abs(surf.y_mm - 5.0)), i] == pytest.approx(-1 + 3 - math.sqrt(5), abs=F32_MM)
+    assert stl.stat().st_size == 84 + 50 * 2 * 100 * 100
+    bad = CliRunner().invoke(main, ["run", str(prog), "--stock", "0,0,-3,10,10", "--surface", str(out)])
+    assert bad.exit_code == 2 and "six" in bad.output
+    no_stock = CliRunner().invoke(main, ["run", str(prog), "--surface", str(out)])
+    assert no_stock.exit_code == 2 and "no stock" in no_stock.output and "no axis moved" in no_stock.output
