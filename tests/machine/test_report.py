@@ -12,7 +12,7 @@ from click.testing import CliRunner
 import browser
 from machine.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "programs" / "demo.nc"
 FINISH = ROOT / "programs" / "finish_nurbs.nc"
 FINISH_MACHINE = ROOT / "programs" / "finish_machine.toml"

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from machine.cli import main
 from machine.trace import load_trace
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "programs" / "demo.nc"
 MACHINE = (ROOT / "ipo" / "machine.toml").read_text()
 

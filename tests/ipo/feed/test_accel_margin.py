@@ -23,8 +23,8 @@ from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap, spread_min
 from ipo.contracts import PeriodBatch
 from ipo.feed.sampling import nurbs_table
 from ipo.feed.scurve import MovingAverage
-from tests.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
-from tests.test_nurbs_corners import random_cubic
+from tests.ipo.feed.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
+from tests.ipo.feed.test_nurbs_corners import random_cubic
 
 SCURVE = dataclasses.replace(CFG, accel_mode="scurve")
 # what the per-period chords add to the samples' limit: the stepper and the curvature

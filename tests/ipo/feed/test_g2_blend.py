@@ -16,7 +16,7 @@ from ipo.contracts import PeriodBatch
 from ipo.feed.pieces import KIND_ANALYTIC, KIND_BLEND, Motion, build
 from ipo.feed.sampling import ARC_TOL_MM, nurbs_table
 from ipr.entities import Line, PathControl
-from tests.test_feed import FINE
+from tests.ipo.feed.test_feed import FINE
 
 T = FINE.period_s
 A = np.array([a.max_accel_mm_s2 for a in FINE.axes])

@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from grbl_emulator import Faults, GrblDouble, PtyServer, SocketServer
 from machine.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _run(args, tmp_path):
