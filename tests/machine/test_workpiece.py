@@ -33,6 +33,7 @@ def cut(tmp_path, text: str, stock: str, grid_um: float, *, tools=None, tool=Non
     return wp.surface()
 
 
+@pytest.mark.slow
 def test_envelope_is_the_minimum_over_the_segment():
     """Closed forms (ball, flat) and the bisection (bull) against a dense sampling of t."""
     rng = np.random.default_rng(7)
@@ -56,6 +57,7 @@ def test_envelope_is_the_minimum_over_the_segment():
             assert ref - 2e-4 <= got <= ref + 1e-12
 
 
+@pytest.mark.slow
 def test_ball_raster_leaves_the_classical_scallop(tmp_path):
     r, s, g_um = 3.0, 0.5, 5.0
     lines = ["G21 G90 G94 G64 T1 M6 S10000 M3", "G0 X0 Y1 Z1", "G1 Z-1 F3000"]
@@ -86,6 +88,7 @@ def test_flat_plunge_leaves_its_exact_disc(tmp_path):
     assert set(np.unique(surf.line[rho < 2.0])) == {3}
 
 
+@pytest.mark.slow
 def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
     tools = {3: Tool(shape="flat", diameter_mm=4.0, flutes=2), 1: Tool(ball_radius_mm=3.0)}
     text = "G21 G90 G94 T3 M6\nG0 X2 Y5 Z1\nG1 Z-1 F300\nX8\nG0 Z5\nT1 M6\nG0 X2 Y12\nG1 Z-1\nX8\nG0 Z5\nM2\n"
@@ -120,6 +123,7 @@ def _bowl_polygon(n: int) -> str:
                      + [f"G1 {p}" for p in pts[1:]] + ["G0 Z25", "M2", ""])
 
 
+@pytest.mark.slow
 def test_g01_polygon_of_a_circle_leaves_facets_of_its_sagitta(tmp_path):
     n = 17
     sagitta_um = RHO * (1 - math.cos(math.pi / 3 / n / 2)) * 1e3
