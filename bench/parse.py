@@ -3,7 +3,12 @@
     python bench/parse.py [--repeats N]
 
 Files: ../shared/corpus/linuxcnc/g1_stellabee1.ngc (where present) and a generated
-200,000-line `G1 X Y Z F` program. vcnc is timed text -> entities with full modal semantics,
+200,000-line `G1 X Y Z F` program.
+
+Two more tables: the command line (`python -m machine.cli parse FILE`, summary included, whole
+process against whole `rs274 -g` process; start-up cancelled by timing each program and its first
+half: rate = extra blocks / extra seconds), and a loop-heavy program (an `o1 while` loop of
+LOOP_ITERATIONS iterations with an expression move and a counter: blocks *executed* per second). vcnc is timed text -> entities with full modal semantics,
 both whole-file (`parse_file`) and streaming (`iter_entities`). rs274 is timed as
 `rs274 -g FILE > /dev/null` minus its start-up time on a program holding only M2.
 Each figure is the best of N runs, vcnc and rs274 interleaved (the machine is shared and
@@ -17,6 +22,7 @@ import os
 import resource
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -28,6 +34,7 @@ import ipr
 STELLABEE = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc" / "g1_stellabee1.ngc"
 GENERATED_BLOCKS = 200_000
 BAR_BLOCKS_S = 150_000
+LOOP_ITERATIONS = 50_000
 
 
 def write_generated(path: Path, n_blocks: int = GENERATED_BLOCKS) -> Path:
@@ -39,6 +46,20 @@ def write_generated(path: Path, n_blocks: int = GENERATED_BLOCKS) -> Path:
     with path.open("w") as f:
         f.writelines(f"G1 X{x:.3f} Y{y:.3f} Z{z:.3f} F{fr}\n" for (x, y, z), fr in zip(xyz, feed))
         f.write("M2\n")
+    return path
+
+
+def write_loop(path: Path, iterations: int = LOOP_ITERATIONS) -> tuple[Path, int]:
+    """An O-word loop program and the number of blocks it executes (4 per iteration)."""
+    path.write_text(f"G21 G90 G0 X0 Y0 Z0 F1000\n#1=0\no1 while [#1 LT {iterations}]\n"
+                    "  G1 X[#1 MOD 100] Y[FIX[#1/100]]\n  #1=[#1+1]\no1 endwhile\nM2\n")
+    return path, 4 * iterations + 4
+
+
+def write_half(src: Path, path: Path) -> Path:
+    """The first half of a program's lines, then M2."""
+    lines = src.read_text().splitlines()
+    path.write_text("\n".join(lines[:len(lines) // 2]) + "\nM2\n")
     return path
 
 
@@ -73,6 +94,59 @@ def time_rs274(rs274: str, path: Path, timing: Timing) -> None:
     subprocess.run([rs274, "-g", str(path)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                    stdin=subprocess.DEVNULL, check=True)
     timing.add(time.perf_counter() - w0, _children_cpu_s() - c0)
+
+
+def time_cli(path: Path, timing: Timing) -> None:
+    """The whole `vcnc parse FILE` process (summary table included), as a user runs it."""
+    w0, c0 = time.perf_counter(), _children_cpu_s()
+    subprocess.run([sys.executable, "-m", "machine.cli", "parse", str(path)], stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL, check=True)
+    timing.add(time.perf_counter() - w0, _children_cpu_s() - c0)
+
+
+def cli_table(files, rs274: str | None, repeats: int, tmp: Path) -> None:
+    print(f"\ncommand line, whole process, blocks/s from a program and its first half (best of {repeats})")
+    header = (f"{'program':<38} | {'wall: vcnc parse':>16} {'rs274 -g':>9} {'ratio':>6} | "
+              f"{'CPU: vcnc parse':>15} {'rs274 -g':>9} {'ratio':>6}")
+    print(header)
+    print("-" * len(header))
+    for label, path in files:
+        half = write_half(path, tmp / f"half_{path.name}")
+        extra = count_blocks(path) - count_blocks(half)
+        t = {k: Timing() for k in ("vcnc", "vcnc_half", "rs274", "rs274_half")}
+        for _ in range(repeats):
+            time_cli(path, t["vcnc"])
+            time_cli(half, t["vcnc_half"])
+            if rs274:
+                time_rs274(rs274, path, t["rs274"])
+                time_rs274(rs274, half, t["rs274_half"])
+        cells = []
+        for clock in ("wall_s", "cpu_s"):
+            v_s = getattr(t["vcnc"], clock) - getattr(t["vcnc_half"], clock)
+            r_s = getattr(t["rs274"], clock) - getattr(t["rs274_half"], clock) if rs274 else float("nan")
+            cells += [_rate(extra, v_s), _rate(extra, r_s) if rs274 else "-",
+                      f"{r_s / v_s:.2f}x" if rs274 else "-"]
+        print(f"{label:<38} | {cells[0]:>16} {cells[1]:>9} {cells[2]:>6} | {cells[3]:>15} {cells[4]:>9} "
+              f"{cells[5]:>6}")
+    print("bar (issue 13): ratio >= 1.00x on both programs")
+
+
+def loop_table(rs274: str | None, repeats: int, startup: Timing, tmp: Path) -> None:
+    path, blocks = write_loop(tmp / "loop.ngc")
+    vcnc, ref = Timing(), Timing()
+    for _ in range(repeats):
+        time_vcnc(vcnc_whole, path, vcnc)
+        if rs274:
+            time_rs274(rs274, path, ref)
+    print(f"\nloop-heavy program ({LOOP_ITERATIONS:,} iterations of an o1 while loop), blocks executed/s, "
+          f"best of {repeats}")
+    for clock in ("wall_s", "cpu_s"):
+        v_s = getattr(vcnc, clock)
+        line = f"  {clock[:-2]:<5} vcnc parse_file {_rate(blocks, v_s):>10}"
+        if rs274:
+            r_s = getattr(ref, clock) - getattr(startup, clock)
+            line += f"   rs274 -g {_rate(blocks, r_s):>10}   ratio {r_s / v_s:.2f}x"
+        print(line)
 
 
 def vcnc_whole(path: Path) -> None:
@@ -142,6 +216,8 @@ def main() -> None:
             rate = blocks / seconds
             print(f"bar: >= {BAR_BLOCKS_S:,} blocks/s (vcnc parse_file) on the generated program, {clock}: "
                   f"{rate:,.0f} -> {'MET' if rate >= BAR_BLOCKS_S else 'NOT MET'}")
+        cli_table(files, rs274, repeats, Path(tmp))
+        loop_table(rs274, repeats, startup, Path(tmp))
         print(f"load average during the run: {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
 
 

@@ -27,7 +27,7 @@ G_GROUPS: dict[int, str] = {
     40: "nonmodal", 530: "nonmodal", 920: "nonmodal", 520: "nonmodal", 100: "nonmodal",
     280: "nonmodal", 281: "nonmodal", 300: "nonmodal", 301: "nonmodal",
     921: "g92_apply", 922: "g92_apply", 923: "g92_apply",
-    400: "comp",
+    400: "comp", 410: "comp", 420: "comp", 411: "comp", 421: "comp",
     430: "tool_length", 431: "tool_length", 432: "tool_length", 490: "tool_length",
     980: "retract", 990: "retract",
     960: "spindle_mode", 970: "spindle_mode",
@@ -47,8 +47,7 @@ _WHY_NOT = {
     760: "threading cycle (spindle-synchronised)", 870: "back boring cycle",
     382: "probing (a virtual machine has no workpiece to touch)", 383: "probing", 384: "probing",
     385: "probing", 70: "lathe diameter mode",
-    410: "cutter radius compensation", 420: "cutter radius compensation",
-    411: "cutter radius compensation", 421: "cutter radius compensation", 171: "UV plane", 181: "UW plane", 191: "VW plane",
+ 171: "UV plane", 181: "UW plane", 191: "VW plane",
 }
 # the item-7 constructs: axes a 3-axis machine does not have
 ABSENT_AXES = frozenset("ABCUVW")

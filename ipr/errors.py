@@ -49,6 +49,9 @@ same table with examples.
 | E-OFFSET             | G10 without L/P or with an L/P out of range; G28.1/G30.1 with axis words |
 | E-FEED-MODE          | G93 move without F; G95 with spindle speed zero                          |
 | E-MCODE-USER         | M100..M199 that the machine file does not name                           |
+| E-COMP               | cutter compensation: no tool radius, not G17, an entry move or arc not    |
+|                      | longer than the radius, a tool larger than an arc, a gouge in a concave  |
+|                      | corner, an arc right after G40, G10/G28/G30/G53/G92 while it is on      |
 | E-DIALECT            | a line of another kind than G-code: grbl's `$` sender commands            |
 
 Warnings and notices (severity "warning"/"notice", never stop a program):
@@ -73,7 +76,7 @@ CODES = (
     "E-NURBS-ORDER", "E-NURBS-WEIGHT", "E-NURBS-START", "E-NURBS-KNOT-COUNT",
     "E-NURBS-KNOT-ORDER", "E-NURBS-KNOT-CLAMP", "E-NURBS-KNOT-MULT", "E-NURBS-POINTS",
     "E-NURBS-BLOCK", "E-NURBS-INCOMPLETE",
-    "E-AXIS-ABSENT", "E-CYCLE", "E-SPINDLE", "E-OFFSET", "E-FEED-MODE", "E-MCODE-USER", "E-DIALECT",
+    "E-AXIS-ABSENT", "E-CYCLE", "E-SPINDLE", "E-OFFSET", "E-FEED-MODE", "E-MCODE-USER", "E-DIALECT", "E-COMP",
     "W-TOOL-UNKNOWN", "N-Q-IGNORED", "N-RECORDED", "N-KNOCK-ON",
 )
 

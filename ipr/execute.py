@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ipr import cycles, modes, nurbs_blocks, offsets, splines
+from ipr import cutter_comp, cycles, modes, nurbs_blocks, offsets, splines
 from ipr.arcs import make_arc
 from ipr.block import AXES, CYCLES, BlockSpec
 from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
@@ -47,8 +47,19 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
         if p < 0.0:
             raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
         out.append(Dwell(line, dwell_seconds(setup.dialect, p)))
+    if "plane" in g and st.comp is not None and st.comp.side and st.plane != _PLANES[g["plane"]]:
+        raise BlockError("E-COMP", "the plane cannot change while cutter radius compensation is on",
+                         spec.where["plane"])
     _modes(st, spec, vals, notices, setup)
+    comp = g.get("comp")
+    if comp == 400:
+        cutter_comp.turn_off(st, out)
+    elif comp is not None:
+        cutter_comp.turn_on(st, spec, vals, lambda t: (offsets.tool_entry(st, setup, t) or (None, None))[1], comp)
     nonmodal = g.get("nonmodal")
+    if st.comp is not None and st.comp.side and (nonmodal in (100, 280, 300, 530, 920, 520) or "g92_apply" in g):
+        raise BlockError("E-COMP", "G10, G28, G30, G52, G53 and G92 cannot be used with cutter radius "
+                         "compensation on (G40 first)", spec.where["nonmodal" if nonmodal else "g92_apply"])
     if nonmodal == 100:
         offsets.g10(st, spec, vals, setup)
     elif nonmodal in (280, 300):
@@ -61,13 +72,23 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
         offsets.g92_apply(st, g["g92_apply"])
     if "motion" in g:
         st.motion = g["motion"]
+    holding = st.comp is not None and st.comp.queue
+    if holding and out:   # events run after the moves compensation holds back
+        cutter_comp.hold(st, out[:])
+        out.clear()
     if spec.moves(motion_before):
         _motion(st, spec, vals, out, notices, line, motion_before, setup.dialect)
     stop = m.get("stop")
     if stop is not None:
-        out.append(ProgramEnd(line) if stop in (20, 300) else Stop(line, optional=stop == 10))
         if stop in (20, 300):
+            if st.comp is not None:
+                cutter_comp.flush_all(st, out)
+            out.append(ProgramEnd(line))
             st.ended = True
+        elif st.comp is not None and st.comp.queue:
+            cutter_comp.hold(st, [Stop(line, optional=stop == 10)])
+        else:
+            out.append(Stop(line, optional=stop == 10))
 
 
 def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, setup: Setup) -> None:
@@ -107,8 +128,6 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
         st.plane = _PLANES[g["plane"]]
     if "units" in g:
         st.unit = INCH_MM if g["units"] == 200 else 1.0
-    if "comp" in g:
-        st.comp = None
     if "tool_length" in g:
         offsets.tool_length(st, spec, vals, notices, setup, g["tool_length"])
     if "coord" in g:
@@ -143,6 +162,19 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
         raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
     if motion in CYCLES:
         return cycles.run_cycle(st, spec, vals, out, notices, line, motion_before, dialect)
+    comp, end = st.comp, None
+    if comp is not None:
+        where = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
+        if motion not in (0, 10, 20, 30) or g53 or st.feed_mode == 930:
+            raise BlockError("E-COMP", "under cutter radius compensation only G0, G1, G2 and G3 moves in G94/G95 "
+                             "are supported", where)
+        end = target(st, spec, vals, comp.programmed)
+        if not comp.side:   # the exit move after G40: from the compensated point to the programmed end
+            if motion in (20, 30):
+                raise BlockError("E-COMP", "the first move after G40 cannot be an arc", where)
+            st.comp = None
+        else:
+            return _comp_motion(st, spec, vals, out, notices, line, motion, end, where, dialect)
     if motion in (52, 62):
         if st.rotation_deg:
             raise BlockError("E-OFFSET", "NURBS blocks in a rotated coordinate system (G10 L2 R) are not "
@@ -150,7 +182,8 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
         return nurbs_blocks.start_group(st, spec, vals, line, notices)
     if motion == 53:
         raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
-    end = target(st, spec, vals, st.pos, machine=g53)
+    if end is None:
+        end = target(st, spec, vals, st.pos, machine=g53)
     if motion == 0:
         out.append(Rapid(line, st.pos, end, st.path))
     else:
@@ -173,6 +206,26 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
                 arc = replace(arc, feed_mm_s=modes.move_feed_mm_s(st, spec, vals, word, st.pos, end, arc))
             out.append(arc)
     st.pos = end
+
+
+def _comp_motion(st, spec, vals, out, notices, line: int, motion: int, end, where, dialect: str) -> None:
+    """A G0..G3 under compensation (ipr.cutter_comp), `end` the programmed end point."""
+    if motion == 0:
+        return cutter_comp.straight(st, "rapid", line, end, None, out)
+    if st.feed_mm_s <= 0.0:
+        raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", where)
+    comp, tool_pos = st.comp, st.pos
+    start = tool_pos if comp.first else comp.programmed   # rs274's arc_data_comp_ijk / arc_data_ijk
+    st.pos = start
+    arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices) if motion != 10 else None
+    st.pos = tool_pos
+    feed_mm_s = modes.move_feed_mm_s(st, spec, vals, where, start, end, arc)
+    if arc is None:
+        return cutter_comp.straight(st, "line", line, end, feed_mm_s, out)
+    if arc.turns:
+        raise BlockError("E-COMP", "full turns (P) of an arc under cutter radius compensation are not supported",
+                         spec.index["P"])
+    return cutter_comp.arc(st, line, end, arc.center[:2], 1 if arc.ccw else -1, feed_mm_s, out)
 
 
 def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, dialect: str, notices):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from ipr import nurbs_blocks
+from ipr import cutter_comp, nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Message
 from ipr.dialect import sender_command
@@ -197,6 +197,13 @@ class Interpreter:
             return
         params = self.state.params
         params.line = line
+        if not block.words and not block.messages and self.state.nurbs is None:
+            # parameter assignments alone (loop counters): no codes to check, no state but the table
+            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
+            for key, _ in assigns:
+                params.check_writable(key)
+            params.update(assigns)
+            return
         vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
         for i, ((letter, _), v) in enumerate(zip(block.words, vals)):
             if letter in "GM" and not -MAX_VALUE < v < MAX_VALUE:   # before the codes are looked up
@@ -222,6 +229,8 @@ class Interpreter:
 
     def finish(self, last_line: int) -> None:
         """End of input: an open NURBS group is an error; the knock-on errors left out are noted."""
+        if self.state.comp is not None:
+            cutter_comp.flush_all(self.state, self.out)
         for root, message in self.knock_on.summary():
             self.warnings.append(Diagnostic(self.file, root, 1, "N-KNOCK-ON", message, "notice"))
         group = self.state.nurbs

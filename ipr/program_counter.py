@@ -87,6 +87,7 @@ class Executor:
         if self.finished:
             return False
         interp, src, pc = self.interp, self.src, self.pc
+        interp.file = src.file   # diagnostics name the file the line is in
         errors = len(interp.diagnostics)
         try:
             ow = src.owords[pc] if pc in src.owords else _UNKNOWN

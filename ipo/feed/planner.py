@@ -198,6 +198,10 @@ class FeedPlanner:
         win.apply(built.drivers.changed, built.drivers.added)
         if final:
             motions.clear()
+            # the last motion was built whole: nothing is held back, so no corner of it
+            # reaches into the next motion (a stale trim cut the start off the first move
+            # after a dwell or a stop that followed an event)
+            self._trim = 0.0
         else:
             del motions[:-1]
             self._trim = built.trim_mm

@@ -30,22 +30,6 @@ def _nurbs_length_mm(nurbs) -> float:
     return arc_length(nurbs.degree, nurbs.knots, nurbs.weights, nurbs.points, rel_tol=1e-6)
 
 
-def _arc_points(arc, n: int = 65):
-    """Points along an arc (bounding box of the summary)."""
-    import numpy as np
-    from ipr.entities import PLANE_AXES
-
-    a, b, c = PLANE_AXES[arc.plane]
-    a0 = math.atan2(arc.start[b] - arc.center[b], arc.start[a] - arc.center[a])
-    t = np.linspace(0.0, 1.0, n)
-    ang = a0 + t * arc.sweep_rad
-    pts = np.empty((n, 3))
-    pts[:, a] = arc.center[a] + arc.radius_mm * np.cos(ang)
-    pts[:, b] = arc.center[b] + arc.radius_mm * np.sin(ang)
-    pts[:, c] = arc.start[c] + t * (arc.end[c] - arc.start[c])
-    return pts
-
-
 def path_length_mm(entity) -> float:
     kind = type(entity).__name__
     if kind in ("Rapid", "Line"):
@@ -73,31 +57,72 @@ def entity_json(entity, position) -> dict:
     return obj
 
 
+def _straight_summary(moves):
+    """Length and corner points of the straight moves, vectorised (the bulk of a CAM program)."""
+    import numpy as np
+    from itertools import chain
+
+    n = len(moves)
+    starts = np.fromiter(chain.from_iterable(e.start for e in moves), float, 3 * n).reshape(n, 3)
+    ends = np.fromiter(chain.from_iterable(e.end for e in moves), float, 3 * n).reshape(n, 3)
+    return float(np.linalg.norm(ends - starts, axis=1).sum()), [starts, ends]
+
+
+def _arc_summary(arcs):
+    """Length and sampled points of arcs, vectorised per plane (ipr.entities.Arc.sweep_rad's rule)."""
+    import numpy as np
+    from ipr.entities import PLANE_AXES
+
+    length, corners = 0.0, []
+    for plane, (a, b, c) in PLANE_AXES.items():
+        group = [e for e in arcs if e.plane == plane]
+        if not group:
+            continue
+        start, end, center = (np.array([getattr(e, k) for e in group]) for k in ("start", "end", "center"))
+        ccw = np.array([e.ccw for e in group])
+        turns = np.array([e.turns for e in group], float)
+        radius = np.hypot(start[:, a] - center[:, a], start[:, b] - center[:, b])
+        a0 = np.arctan2(start[:, b] - center[:, b], start[:, a] - center[:, a])
+        a1 = np.arctan2(end[:, b] - center[:, b], end[:, a] - center[:, a])
+        up = np.mod(a1 - a0, 2 * np.pi)
+        down = -np.mod(a0 - a1, 2 * np.pi)
+        sweep = np.where(ccw, np.where(up > 1e-12, up, 2 * np.pi), np.where(down < -1e-12, down, -2 * np.pi))
+        sweep += np.copysign(2 * np.pi * turns, sweep)
+        length += float(np.hypot(radius * sweep, end[:, c] - start[:, c]).sum())
+        t = np.linspace(0.0, 1.0, 65)
+        ang = a0[:, None] + t * sweep[:, None]
+        pts = np.empty((len(group), len(t), 3))
+        pts[:, :, a] = center[:, a, None] + radius[:, None] * np.cos(ang)
+        pts[:, :, b] = center[:, b, None] + radius[:, None] * np.sin(ang)
+        pts[:, :, c] = start[:, c, None] + t * (end[:, c] - start[:, c])[:, None]
+        corners.append(pts.reshape(-1, 3))
+    return length, corners
+
+
 def _summary(program) -> None:
     import numpy as np
     from rich.console import Console
     from rich.table import Table
 
-    counts: dict[str, int] = {}
-    length = 0.0
-    corners = []
+    by_kind: dict[str, list] = {kind: [] for kind in _KINDS.values()}
     for e in program.entities:
         kind = _KINDS.get(type(e).__name__)
-        if kind is None:
-            continue
-        counts[kind] = counts.get(kind, 0) + 1
+        if kind is not None:
+            by_kind[kind].append(e)
+    straight = by_kind["rapid"] + by_kind["line"]
+    length, corners = _straight_summary(straight) if straight else (0.0, [])
+    if by_kind["arc"]:
+        arc_length, arc_corners = _arc_summary(by_kind["arc"])
+        length += arc_length
+        corners += arc_corners
+    for e in by_kind["nurbs"]:
         length += path_length_mm(e)
-        if kind == "nurbs":
-            corners.append(e.points)
-        elif kind != "dwell":
-            corners.append(np.array([e.start, e.end]))
-            if kind == "arc":
-                corners.append(_arc_points(e))
+        corners.append(e.points)
     table = Table(title=f"vcnc parse {program.file}", show_header=False)
     table.add_column("figure", style="bold")
     table.add_column("value", justify="right")
     for kind in ("rapid", "line", "arc", "nurbs", "dwell"):
-        table.add_row(f"{kind} entities", str(counts.get(kind, 0)))
+        table.add_row(f"{kind} entities", str(len(by_kind[kind])))
     table.add_row("path length", f"{length:.3f} mm")
     if corners:
         pts = np.vstack(corners)

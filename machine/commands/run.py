@@ -127,8 +127,8 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
         return controller.run(program, progress=lambda line: bar.update(task, completed=line))
 
 
-def _write_pictures(digest, plot_file, report_file, program, result, machine_file) -> None:
-    """The PNG and the HTML report, both from the run's digest."""
+def _write_pictures(digest, plot_file, report_file, program, result, machine_file, surface) -> None:
+    """The PNG and the HTML report, both from the run's digest (the report with the workpiece's surface)."""
     if digest.periods == 0:
         click.echo(f"{program.file}: nothing moved, no plot or report written", err=True)
         return
@@ -143,7 +143,8 @@ def _write_pictures(digest, plot_file, report_file, program, result, machine_fil
     if report_file:
         from machine.report.build import machine_info, run_report
 
-        run_report(report_file, digest, program=program, summary=result.summary(), machine=machine_info(machine_file))
+        run_report(report_file, digest, program=program, summary=result.summary(), machine=machine_info(machine_file),
+                   surface=surface)
         click.echo(f"report written to {report_file}", err=True)
 
 
@@ -228,13 +229,12 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
                    f"(first run after an install or a change; cached for the next runs)", err=True)
     if result.state == "completed" and result.periods == 0:
         click.echo(f"{file}: the program commands no motion; nothing moved", err=True)
-    if workpiece is not None:
-        finish_workpiece(workpiece, result, surface_files)
+    surface = finish_workpiece(workpiece, result, surface_files) if workpiece is not None else None
     if result.state != "completed":
         where = f"line {result.line}" if result.periods else "the start, before the first move"
         click.echo(f"{file}: {result.state} at {where}, position "
                    f"X{result.position_mm[0]:.4f} Y{result.position_mm[1]:.4f} Z{result.position_mm[2]:.4f}"
                    + (f": {result.fault}" if result.fault else ""), err=True)
     if digest is not None:
-        _write_pictures(digest.finish(), plot_file, report_file, program, result, machine_file)
+        _write_pictures(digest.finish(), plot_file, report_file, program, result, machine_file, surface)
     sys.exit({"completed": 0, "stopped": 0, "interrupted": 130}.get(result.state, 1))

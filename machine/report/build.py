@@ -17,6 +17,7 @@ from machine.report.digest import MAX_BUCKETS, ROW, Digest, digest_trace
 from machine.report.envelope import Envelope, EnvelopeData
 from machine.report.page import Blob, write_page
 
+SURFACE_NODES = 300  # per side of the workpiece's height map in the page: 90 000 nodes, ~0.4 MB
 LIMIT_COLOURS = ("#66bb6a", "#42a5f5", "#ffa726", "#ec407a", "#7e57c2", "#fdd835", "#9e9e9e")
 
 
@@ -31,6 +32,16 @@ def _source_lines(path: str | Path, wanted: np.ndarray) -> tuple[np.ndarray, lis
     return lines.astype(np.int32), [text[n - 1].rstrip() for n in lines]
 
 
+def surface_grid(x_mm: np.ndarray, y_mm: np.ndarray, z_mm: np.ndarray, nodes: int = SURFACE_NODES):
+    """A height map z_mm[j, i] over x_mm[i], y_mm[j] reduced to at most `nodes` per side, each node
+    the lowest height of its block (a gouge or the deepest cut is never smoothed away), at the
+    block's first coordinates."""
+    sx, sy = max(1, -(-len(x_mm) // nodes)), max(1, -(-len(y_mm) // nodes))
+    z = np.minimum.reduceat(np.minimum.reduceat(z_mm, np.arange(0, len(y_mm), sy), axis=0),
+                            np.arange(0, len(x_mm), sx), axis=1)
+    return x_mm[::sx], y_mm[::sy], z
+
+
 def _add_envelope(blob: Blob, prefix: str, env: EnvelopeData) -> None:
     blob.add(prefix + "lo", env.lo, "f4")
     blob.add(prefix + "hi", env.hi, "f4")
@@ -42,7 +53,7 @@ def _add_envelope(blob: Blob, prefix: str, env: EnvelopeData) -> None:
 
 def add_run(blob: Blob, k: int, digest: Digest, *, name: str, program_file: str | Path, rapid_lines,
             summary: dict | None = None, warnings=(), messages=(), machine: dict | None = None,
-            surface: dict | None = None) -> dict:
+            surface=None) -> dict:
     """Lay one run into the blob; the returned dict is its entry in info["runs"]."""
     p = f"r{k}_"
     _add_envelope(blob, p + "env_", digest.env)
@@ -62,9 +73,10 @@ def add_run(blob: Blob, k: int, digest: Digest, *, name: str, program_file: str 
     blob.add_text(p + "text", texts)
     has_surface = surface is not None
     if has_surface:  # the virtual workpiece's height map, when the run computed one
-        blob.add(p + "surf_x", surface["x_mm"], "f4")
-        blob.add(p + "surf_y", surface["y_mm"], "f4")
-        blob.add(p + "surf_z", surface["z_mm"], "f4")
+        x, y, z = surface_grid(surface.x_mm, surface.y_mm, surface.z_mm)
+        blob.add(p + "surf_x", x, "f4")
+        blob.add(p + "surf_y", y, "f4")
+        blob.add(p + "surf_z", z, "f4")
     meta = digest.meta
     return {"name": name, "file": str(program_file), "period_s": digest.period_s, "periods": digest.periods,
             "width": digest.env.width, "signals": list(digest.signals),
@@ -90,9 +102,9 @@ def _base_info(kind: str) -> dict:
             "written": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
 
 
-def run_report(out: str | Path, digest: Digest, *, program, summary: dict, machine: dict,
-               surface: dict | None = None) -> Path:
-    """The report of one run: `program` is the checked ipr Program (warnings, rapids, file)."""
+def run_report(out: str | Path, digest: Digest, *, program, summary: dict, machine: dict, surface=None) -> Path:
+    """The report of one run: `program` is the checked ipr Program (warnings, rapids, file); `surface`
+    the virtual workpiece's height map (x_mm, y_mm, z_mm[j, i] attributes) when the run cut one."""
     from ipr.entities import Rapid
 
     blob = Blob()

@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ipo.contracts import LIMIT_NAMES
 from machine.report.envelope import Envelope, EnvelopeData
@@ -28,6 +29,27 @@ ROW = ("x", "y", "z", "s", "feed", "limit", "line")
 MAX_BUCKETS = 8192
 PATH_SAMPLES = 32768  # the 3-D path's and the pick's positions between block ends: 4 per envelope bucket
 CHUNK_PERIODS = 1 << 16  # batches are gathered to this size: a G1 program's batches are a few periods each
+
+
+@njit(cache=True)
+def _signals(ext, old, h, blu, period_s, feed, out, step):
+    """Per period k (row old + k of the positions ext, BLU, the rows before it already seen): the
+    feed, each axis's signed velocity, acceleration and jerk by the drive's backward stencils of h
+    periods (NaN until the stencil has its rows), into out (n, 10); the path step (mm) into step."""
+    ht = h * period_s
+    for k in range(out.shape[0]):
+        i = old + k
+        out[k, 0] = feed[k]
+        d2 = 0.0
+        for a in range(3):
+            d = ext[i, a] - ext[i - 1, a]
+            d2 += float(d * d)
+            out[k, 1 + a] = d * blu / period_s
+            out[k, 4 + a] = ((ext[i, a] - 2 * ext[i - h, a] + ext[i - 2 * h, a]) * blu / ht**2
+                             if i >= 2 * h else np.nan)
+            out[k, 7 + a] = ((ext[i, a] - 3 * ext[i - h, a] + 3 * ext[i - 2 * h, a] - ext[i - 3 * h, a])
+                             * blu / ht**3 if i >= 3 * h else np.nan)
+        step[k] = np.sqrt(d2) * blu
 
 
 @dataclass(slots=True)
@@ -78,27 +100,6 @@ class DigestSink:
         self._pending: list[dict[str, np.ndarray]] = []
         self._pending_n = 0
 
-    def _motion(self, pos_blu: np.ndarray) -> np.ndarray:
-        """Signed velocity, acceleration and jerk per axis (n, 9); NaN before the stencil fills."""
-        h, n = self._h, len(pos_blu)
-        ext = np.concatenate((self._tail, pos_blu)).astype(np.float64)
-        old = len(self._tail)
-        out = np.full((n, 9), np.nan)
-        scale = self._blu / (h * self._T)
-        out[:, 0:3] = (ext[old:] - ext[old - 1:-1]) * (self._blu / self._T)  # old >= 1: the start is in the tail
-        i = np.arange(old, old + n)
-        ok = i >= 2 * h
-        if ok.any():
-            j = i[ok]
-            out[ok, 3:6] = (ext[j] - 2 * ext[j - h] + ext[j - 2 * h]) * (scale / (h * self._T))
-        ok = i >= 3 * h
-        if ok.any():
-            j = i[ok]
-            out[ok, 6:9] = (ext[j] - 3 * ext[j - h] + 3 * ext[j - 2 * h] - ext[j - 3 * h]) * (
-                scale / (h * self._T) ** 2)
-        self._tail = ext[-3 * h:].astype(np.int64) if len(ext) >= 3 * h else ext.astype(np.int64)
-        return out
-
     def write(self, rows: dict[str, np.ndarray]) -> None:
         n = len(rows["t_s"])
         if n == 0:
@@ -127,16 +128,20 @@ class DigestSink:
             self._path_period.append(np.array([-1]))
             self._path_rows.append(np.array([[*start, 0.0, 0.0, 0.0, line0]]))
         pos_blu = np.rint(pos / self._blu).astype(np.int64)
-        step = np.linalg.norm(np.diff(np.vstack((self._tail[-1:] * self._blu, pos)), axis=0), axis=1)
-        s = self._s_mm + np.cumsum(step)
-        self._s_mm = float(s[-1])
+        ext = np.concatenate((self._tail, pos_blu))
         feed, limit, line = (np.asarray(rows[k]) for k in ("feed_mm_s", "limit", "line"))
         values = np.empty((n, len(self.signals)))
-        values[:, 0] = feed
-        values[:, 1:10] = self._motion(pos_blu)
+        step = np.empty(n)
+        _signals(ext, len(self._tail), self._h, self._blu, self._T, np.asarray(feed, dtype=np.float64), values, step)
+        self._tail = ext[-3 * self._h:].copy()
         if len(self.signals) > 10:
             values[:, 10] = rows[SERVO_SIGNAL]
-        table = np.column_stack((pos, s, feed, limit, line)).astype(np.float64)
+        s = self._s_mm + np.cumsum(step)
+        self._s_mm = float(s[-1])
+
+        def table(idx):
+            return np.column_stack((pos[idx], s[idx], feed[idx], limit[idx], line[idx])).astype(np.float64)
+
         self._env.add(values, table, limit)
         self._samples.add(values[:, :0], table)
 
@@ -150,8 +155,8 @@ class DigestSink:
                 self._path_period.append(np.array([first_period - 1]))
                 self._path_rows.append(self._last_row[None, :])
             self._path_period.append(first_period + ends)
-            self._path_rows.append(table[ends])
-        self._last_row = table[-1].copy()
+            self._path_rows.append(table(ends))
+        self._last_row = table(np.array([n - 1]))[0]
         self._last_line = line[-1]
 
     def close(self) -> Digest:

@@ -115,8 +115,9 @@ class Envelope:
             self.counts[half:] = 0
             self.width *= 2
 
-    def add(self, values: np.ndarray, rows: np.ndarray | None = None, category: np.ndarray | None = None) -> None:
-        """The next len(values) periods: values (n, signals), rows (n, row_width), category (n,) ints."""
+    def add(self, values: np.ndarray, rows=None, category: np.ndarray | None = None) -> None:
+        """The next len(values) periods: values (n, signals); rows(idx) gives the (len(idx), row_width)
+        rows of those of the n periods (local indices) that open a bucket; category (n,) ints."""
         n = len(values)
         if n == 0:
             return
@@ -124,12 +125,16 @@ class Envelope:
         self._make_room(first + n - 1)
         fold(np.ascontiguousarray(values, dtype=np.float64), first, self.width, self.lo, self.hi,
              self.arg_lo, self.arg_hi)
-        p = np.arange(first, first + n)
         if rows is not None:
-            starts = np.flatnonzero(p % self.width == 0)
-            self.first_rows[p[starts] // self.width] = rows[starts]
+            starts = np.arange(-first % self.width, n, self.width)
+            if len(starts):
+                self.first_rows[(first + starts) // self.width] = rows(starts)
         if category is not None:
-            np.add.at(self.counts, (p // self.width, np.asarray(category, dtype=np.int64)), 1)
+            base, cats = first // self.width, self.counts.shape[1]
+            bucket = (np.arange(first, first + n) // self.width - base) * cats
+            span = (first + n - 1) // self.width - base + 1
+            self.counts[base:base + span] += np.bincount(bucket + np.asarray(category, dtype=np.int64),
+                                                         minlength=span * cats).reshape(span, cats)
         self.periods += n
 
     def finish(self) -> EnvelopeData:

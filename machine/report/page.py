@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 _ALIGN = 8
+GZIP_LEVEL = 1  # level 6 made the page 1 % smaller for twice the time (g1_lhchips4)
 
 
 class Blob:
@@ -45,7 +46,7 @@ class Blob:
 
     def encoded(self) -> str:
         """gzip (what DecompressionStream("gzip") reads), then base64."""
-        comp = zlib.compressobj(6, zlib.DEFLATED, 31)
+        comp = zlib.compressobj(GZIP_LEVEL, zlib.DEFLATED, 31)
         raw = comp.compress(b"".join(self._parts)) + comp.flush()
         return base64.b64encode(raw).decode("ascii")
 

@@ -41,7 +41,8 @@ def start_workpiece(program, config, stock_text, tool, grid_um):
     return workpiece
 
 
-def finish_workpiece(workpiece, result, surface_files) -> None:
+def finish_workpiece(workpiece, result, surface_files):
+    """Report the removal's cost, write the surface files; the surface, for the run's report."""
     from machine.workpiece.surface_file import save_npz, save_stl
 
     surface = workpiece.surface()
@@ -59,3 +60,4 @@ def finish_workpiece(workpiece, result, surface_files) -> None:
 
             plot_surface(surface, path, title=f"vcnc run {result.file}")
         click.echo(f"surface written to {path}", err=True)
+    return surface

@@ -19,10 +19,6 @@ ROOT = Path(__file__).resolve().parents[2]
 CAM = ROOT / "tests" / "cam"
 PROGRAMS = sorted(p for p in CAM.iterdir() if p.suffix in (".nc", ".ngc", ".tap"))
 TOOLS = {1: (0.0, 3.0), 2: (20.0, 2.5), 3: (30.0, 1.5)}   # tool -> (length, radius) mm
-# an IPO fault, not the interpreter's: a rapid, then M3 and G4 before a G64 P feed corner runs Z
-# at 121 mm/s (limit 100); "G21 G64 P0.05 / G0 Z10 / G0 X5 Y5 / G0 Z3.8 / M3 / G4 P0.5 /
-# G1 Z1.5 F600 / G1 X55 F2500" reproduces it on main
-IPO_FAULT = {"sheetcam_linuxcnc.ngc"}
 
 
 def machine_file(tmp_path: Path, dialect: str) -> Path:
@@ -39,10 +35,7 @@ def dialect_of(path: Path) -> str:
     return path.stem.rsplit("_", 1)[1]
 
 
-@pytest.mark.parametrize("path", [
-    pytest.param(p, id=p.name, marks=[pytest.mark.xfail(strict=True, reason="IPO: a rapid then M3 and G4 before a "
-                                                           "G64 P corner overshoots Z velocity (IPO_FAULT)")]
-                 if p.name in IPO_FAULT else []) for p in PROGRAMS])
+@pytest.mark.parametrize("path", PROGRAMS, ids=lambda p: p.name)
 def test_cam_program_runs_to_completion(tmp_path, path: Path) -> None:
     result = CliRunner().invoke(main, ["run", str(path), "--machine", str(machine_file(tmp_path, dialect_of(path))),
                                        "--json"])

@@ -61,14 +61,15 @@ def test_summary_counts_length_and_box(tmp_path):
 
 
 def test_errors_go_to_stderr_with_exit_1(tmp_path):
-    result, path = _run(tmp_path, "G0 X1\nG41 X2\nG1 X3\n", "--all-errors")
+    result, path = _run(tmp_path, "G0 X1\nG33 X2 K1\nG1 X3\n", "--all-errors")
     assert result.exit_code == 1
     assert result.stderr.splitlines() == [
-        f"{path}:2:1: error[E-GCODE-UNSUPPORTED]: unsupported G-code G41 (cutter radius compensation)",
+        f"{path}:2:1: error[E-GCODE-UNSUPPORTED]: unsupported G-code G33 (spindle-synchronised motion "
+        "(threading))",
         f"{path}:3:1: error[E-FEED-ZERO]: feed move with feed rate zero (program an F word)",
     ]
     assert result.stdout == ""
-    result, _ = _run(tmp_path, "G0 X1\nG41 X2\nG1 X3\n")
+    result, _ = _run(tmp_path, "G0 X1\nG33 X2 K1\nG1 X3\n")
     assert result.exit_code == 1 and len(result.stderr.splitlines()) == 1
 
 

@@ -15,7 +15,7 @@ CASES = [
     ("G1 E1", "E-WORD-UNUSED", 1, 4),
     ("G1 A1", "E-AXIS-ABSENT", 1, 4),
     ("G0 X1\nM3 S100 G1 W2 F10", "E-AXIS-ABSENT", 2, 12),
-    ("G0 X1\n  G41 X2", "E-GCODE-UNSUPPORTED", 2, 3),
+    ("G0 X1\n  G41 X2", "E-COMP", 2, 3),
     ("G0 X1 G33 X2 K1", "E-GCODE-UNSUPPORTED", 1, 7),
     ("G0 X1\nG38.2 Z-5 F10", "E-GCODE-UNSUPPORTED", 2, 1),
     ("G0 X1\nG76 P1 Z-5 I1 J1 K1", "E-GCODE-UNSUPPORTED", 2, 1),
@@ -126,7 +126,7 @@ def test_error_table_is_documented():
 
 
 def test_messages_name_the_code_or_the_number():
-    assert "G41" in _first_error("G41 X1").message
+    assert "G76" in _first_error("G0 X1\nG76 P1 Z-5 I1 J1 K1").message
     assert "G33" in _first_error("G0 X1 G33 X2 K1").message
     assert "0.200 mm off the circle" in _first_error("F100 G2 X2 Y0 I1.1").message
     assert "line 2" in _first_error("F100\nG6.2 P3 K0\nX1 K0\nK0\nK1\nK1\nK1").message
@@ -142,7 +142,7 @@ def test_all_errors_collects_every_error_and_continues():
     with pytest.raises(GCodeError) as info:
         ipr.parse_text(text, "p.nc", all_errors=True)
     got = [(d.line, d.code) for d in info.value.diagnostics]
-    assert got == [(2, "E-GCODE-UNSUPPORTED"), (3, "E-FEED-ZERO"), (4, "E-WORD-REPEATED"),
+    assert got == [(2, "E-COMP"), (3, "E-FEED-ZERO"), (4, "E-WORD-REPEATED"),
                    (6, "E-MCODE-UNSUPPORTED")]
 
 

@@ -227,9 +227,9 @@ def test_tool_missing_from_table_is_a_warning_and_zero():
 
 
 @pytest.mark.parametrize("code", ["G41", "G42"])
-def test_cutter_compensation_unsupported(code):
+def test_cutter_compensation_needs_a_tool_radius(code):
     d = error(f"G0 X1\n{code} D1 X2\n")
-    assert (d.code, d.line, d.col) == ("E-GCODE-UNSUPPORTED", 2, 1) and code in d.message
+    assert (d.code, d.line, d.col) == ("E-COMP", 2, 5) and "tool 1" in d.message
 
 
 def test_dwell():

@@ -193,3 +193,50 @@ def test_compare_report_in_chromium_aligns_both_programs_by_distance(tmp_path):
         shot = page.screenshot(tmp_path / "cmp.png")
         assert page.errors == []
     assert _not_blank(shot) > 0.05
+
+
+def test_surface_grid_keeps_the_deepest_point_of_each_block():
+    from machine.report.build import surface_grid
+
+    x, y = np.linspace(0, 10, 1001), np.linspace(0, 5, 501)
+    z = np.zeros((len(y), len(x)))
+    z[123, 456] = -0.3  # a one-node gouge
+    gx, gy, gz = surface_grid(x, y, z, nodes=100)
+    assert gz.shape == (len(gy), len(gx)) and len(gx) <= 100 and len(gy) <= 100
+    assert gz.min() == -0.3 and np.count_nonzero(gz) == 1
+    j, i = np.argwhere(gz == -0.3)[0]
+    assert gx[i] <= x[456] < gx[i] + (gx[1] - gx[0]) and gy[j] <= y[123] < gy[j] + (gy[1] - gy[0])
+
+
+@needs_chromium
+def test_workpiece_surface_is_drawn_when_the_run_has_one(tmp_path):
+    from types import SimpleNamespace
+
+    from machine.report.build import machine_info, run_report
+
+    program, result, digest, _ = _demo_run()
+    x, y = np.linspace(-5, 35, 81), np.linspace(-5, 35, 81)
+    z = -0.01 * ((x[None, :] - 15) ** 2 + (y[:, None] - 15) ** 2) / 10
+    out = run_report(tmp_path / "surface.html", digest, program=program, summary=result.summary(),
+                     machine=machine_info(None), surface=SimpleNamespace(x_mm=x, y_mm=y, z_mm=z))
+    with _open(out, tmp_path / "surface.png") as page:
+        kinds = page.evaluate("document.getElementById('path3d').data.map(t => t.type)")
+        assert "surface" in kinds
+        zs = page.evaluate("document.getElementById('path3d').data.find(t => t.type === 'surface').z.flat()")
+        assert min(zs) == pytest.approx(z.min(), abs=1e-6) and len(zs) == z.size
+        assert page.errors == []
+
+
+def test_run_with_a_workpiece_puts_its_surface_in_the_report(tmp_path):
+    import json as json_
+
+    out = tmp_path / "cut.html"
+    r = vcnc("run", DEMO, "--machine", FINISH_MACHINE, "--stock=-5,-5,-2,35,35,1", "--grid-um", 250,
+             "--report", out)
+    assert r.exit_code == 0, r.stderr
+    text = out.read_text()
+    info = json_.loads(re.search(r'id="vcnc-info">(.*?)</script>', text).group(1))
+    assert info["runs"][0]["surface"] is True
+    dtype, _, size, shape = info["arrays"]["r0_surf_z"]
+    # the stock is 40 x 40 mm at 250 um: 161 nodes a side, under the page's 300
+    assert shape == [161, 161] and size == 161 * 161

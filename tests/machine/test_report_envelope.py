@@ -59,7 +59,7 @@ def test_undefined_values_are_skipped_and_rows_and_counts_follow_the_merges():
     y = np.arange(n, dtype=float)
     y[:5] = np.nan
     env = Envelope(1, max_buckets=8, row_width=1, categories=3)
-    env.add(y[:, None], rows=np.arange(n, dtype=float)[:, None], category=np.arange(n) % 3)
+    env.add(y[:, None], rows=lambda idx: idx.astype(float)[:, None], category=np.arange(n) % 3)
     d = env.finish()
     assert d.width == 128 and len(d) == 8
     assert d.lo[0, 0] == 5 and d.arg_lo[0, 0] == 5 and d.hi[-1, 0] == n - 1

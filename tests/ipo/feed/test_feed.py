@@ -206,6 +206,22 @@ def test_events_dwell_and_stop_in_order():
     assert kinds[-1] == "ProgramEnd"
 
 
+@pytest.mark.parametrize("stop", [Dwell(5, 0.1), Stop(5, False)])
+def test_a_blended_corner_before_an_event_does_not_trim_the_move_after_a_stop(stop):
+    """Two blended rapids, an event (held at the second one's end, so its corner was built
+    ahead), then a dwell or a stop: the move after it starts where the machine stands and
+    moves no axis faster than its limit (a stale corner trim cut 0.12 mm off its start)."""
+    ents = [Rapid(1, (0, 0, 10), (5, 5, 10), G64), Rapid(2, (5, 5, 10), (5, 5, 3.8), G64),
+            Spindle(3, 1000.0, "cw"), Message(4, "at depth"), stop,
+            Line(6, (5, 5, 3.8), (5, 5, 1.5), 10.0, G64), Line(7, (5, 5, 1.5), (55, 5, 1.5), 40.0, G64)]
+    _, out, start = run(ents)
+    assert_within_limits(out["pos_mm"], start)
+    after = out["line"] == 6
+    first = np.flatnonzero(after)[0]
+    np.testing.assert_allclose(out["pos_mm"][first - 1], [5, 5, 3.8], atol=1e-9)
+    assert np.abs(out["pos_mm"][first] - out["pos_mm"][first - 1]).max() <= 10.0 * T
+
+
 def test_feed_override_and_live_change():
     line = [Line(1, (0, 0, 0), (100, 0, 0), 50.0)]
     _, out, _ = run(line, feed_override=0.5)
