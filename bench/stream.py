@@ -15,6 +15,11 @@ of NURBS programs turned into G1 segments by vcnc's IPO.
    rounding, so the deviation stays within the merge tolerance. Then what
    the stream asks of a 115200-baud grbl with 15 planner blocks (machine.grbl.budget).
 
+3. Compact lines (issue 17) against the format vcnc sent before (every axis and F on
+   every line, 4 decimals, a preamble G21G90G91.1G94G17), written in the same run from
+   the same stream: bytes per line, bytes in all, the time a 115200-baud port needs for
+   them, and lines per second through the double for both.
+
 Usage: python bench/stream.py
 """
 from __future__ import annotations
@@ -30,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
 from grbl_emulator import GrblDouble, PtyServer  # noqa: E402
+from ipr.entities import PLANE_AXES  # noqa: E402
 from ipo.config import default_config  # noqa: E402
 from ipo.nurbs.kernel import curve_points  # noqa: E402
 from ipr import parse_file  # noqa: E402
@@ -166,6 +172,69 @@ def _report(path, ents, source, lines, unblended, tol_mm) -> None:
               f"{e.feed_mm_s * 60:.0f})")
 
 
+def _verbose(line) -> str:
+    """The line as vcnc wrote it before issue 17: every axis and F, 4 decimals."""
+    n = lambda v: f"{v:.4f}"  # noqa: E731
+    xyz = "".join(f"{a}{n(v)}" for a, v in zip("XYZ", line.end_mm))
+    if line.arc is not None:
+        center, plane, ccw, feed = line.arc
+        a, b, _ = PLANE_AXES[plane]
+        offs = "".join(f"{'IJK'[k]}{n(center[k] - line.start_mm[k])}" for k in sorted((a, b)))
+        return f"{ {'XY': 'G17', 'ZX': 'G18', 'YZ': 'G19'}[plane]}F{n(feed)}{'G3' if ccw else 'G2'}{xyz}{offs}"
+    if line.motion:
+        return f"G1{xyz}F{n(line.feed_mm_min)}" if line.feed_mm_min is not None else f"G0{xyz}"
+    return line.text
+
+
+def _rate(lines) -> float:
+    double = GrblDouble(drain_s_per_block=0.0, wco=(0.0, 0.0, 0.0))
+    with PtyServer(double).start() as srv:
+        link = GrblLink(srv.port, poll_interval_s=0.2, settle_s=0.05)
+        link.connect(CFG)
+        t0 = time.perf_counter()
+        res = link.stream(lines, Ledger(1))
+        dt = time.perf_counter() - t0
+        link.close()
+    assert res.completed, res.fault
+    return len(lines) / dt
+
+
+def compactness() -> None:
+    from machine.grbl.job import build_job, machine_at_zero
+
+    import tempfile
+
+    gen = Path(tempfile.mkdtemp()) / "zigzag500.nc"  # written and removed in this run
+    gen.write_text("G21 G90 G17\nG0 Z1\n" + "".join(
+        f"G1 X{0.5 * (i + 1):.3f} Y{12.3456 * (i % 2):.4f} Z-0.5 F1500\n" for i in range(498)))
+    progs = [gen, ROOT / "programs" / "demo.nc", CORPUS / "g1_lhchips4.ngc"]
+    print("compact lines (issue 17) against vcnc's earlier format (every axis and F, 4 decimals), same run:")
+    try:
+        for path in progs:
+            if not path.exists():
+                print(f"  {path.name}: not found (corpus absent), skipped")
+                continue
+            lines = build_job(path, CFG, machine_at_zero()).lines
+            verbose = [dataclasses.replace(l, text=_verbose(l)) for l in lines]
+            verbose.insert(0, dataclasses.replace(lines[0], seq=0, text="G21G90G91.1G94G17", motion=False))
+            verbose = [dataclasses.replace(l, seq=i + 1) for i, l in enumerate(verbose)]
+            b_new = sum(len(l.text) + 1 for l in lines)
+            b_old = sum(len(l.text) + 1 for l in verbose)
+            name = "500-line zigzag" if path == gen else path.name
+            print(f"  {name}: source {path.stat().st_size} bytes; before {len(verbose)} lines {b_old} bytes "
+                  f"({b_old / len(verbose):.1f} bytes/line, {b_old / 11520:.2f} s at 115200 baud); after "
+                  f"{len(lines)} lines {b_new} bytes ({b_new / len(lines):.1f} bytes/line, {b_new / 11520:.2f} s); "
+                  f"{b_old / b_new:.2f}x fewer bytes")
+            if len(lines) <= 5000:
+                r_old, r_new = _rate(verbose), _rate(lines)
+                print(f"    through the double: before {r_old:.0f} lines/s, after {r_new:.0f} lines/s "
+                      f"({r_new / r_old:.2f}x)")
+    finally:
+        gen.unlink(missing_ok=True)
+        gen.parent.rmdir()
+
+
 if __name__ == "__main__":
     throughput()
+    compactness()
     nurbs_programs()

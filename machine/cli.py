@@ -20,9 +20,11 @@ COMMANDS = {
     "run": "machine.commands.run",
     "plot": "machine.commands.plot",
     "stream": "machine.commands.stream",
+    "grbl": "machine.commands.grbl",
     "fit": "machine.commands.fit",
     "compare": "machine.commands.compare",
     "surface": "machine.commands.surface",
+    "surface-report": "machine.commands.surface_report",
     "toolpath": "machine.commands.toolpath",
 }
 

@@ -58,12 +58,16 @@ class GrblDouble:
 
     def __init__(self, *, rx_size=128, planner_blocks=15, drain_s_per_block=0.0, wco=(5.0, -3.0, 1.0),
                  mpos=(0.0, 0.0, 0.0), settings=None, faults: Faults | None = None, partial_blocks: bool = False,
-                 line_numbers: bool = False, mist: bool = True, hold_decel_s: float = 0.0):
+                 line_numbers: bool = False, mist: bool = True, hold_decel_s: float = 0.0,
+                 early_discard: bool = False):
         self.rx_size, self.planner_blocks = rx_size, planner_blocks
         self.drain_s = drain_s_per_block
         self.partial_blocks = partial_blocks  # a hold stops inside the running block (lines and arcs)
         self.partials: list[tuple[str, tuple]] = []  # blocks cut short by a reset: (line, where)
         self.line_numbers, self.mist, self.hold_decel_s = line_numbers, mist, hold_decel_s
+        # grbl drops a block from its planner once the stepper has prepared all of it, while it
+        # still runs: Bf then counts one block less and Ln names the next line
+        self.early_discard = early_discard
         self.settings = dict(settings or DEFAULT_SETTINGS)
         self.faults = faults or Faults()
         self.outbox = bytearray()
@@ -175,10 +179,13 @@ class GrblDouble:
         mpos = ",".join(f"{p:.3f}" for p in self.pos)
         state = f"{self.state}:{self.sub}" if self.state == "Hold" else self.state
         s = f"<{state}|MPos:{mpos}"
+        queued = list(self.planner)
+        if self.early_discard and queued and self.state in ("Run", "Hold"):
+            queued = queued[1:]
         if int(self.settings.get(10, 1)) & 2:
-            s += f"|Bf:{self.planner_blocks - len(self.planner)},{self.rx_size - 1 - len(self.rx)}"
-        if self.line_numbers and self.planner and self.planner[0][3] is not None:
-            s += f"|Ln:{self.planner[0][3]}"
+            s += f"|Bf:{self.planner_blocks - len(queued)},{self.rx_size - 1 - len(self.rx)}"
+        if self.line_numbers and queued and queued[0][3] is not None:
+            s += f"|Ln:{queued[0][3]}"
         s += f"|FS:{self.gc.feed:.0f},0"
         if self._reports % 10 == 0:
             s += "|WCO:" + ",".join(f"{o:.3f}" for o in self.gc.wco)

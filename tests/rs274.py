@@ -11,8 +11,10 @@ same order as ipr.entities.PLANE_AXES; |rotation| is the number of revolutions (
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 from typing import NamedTuple
 
@@ -22,8 +24,7 @@ from ipr.entities import PLANE_AXES
 
 RS274 = shutil.which("rs274")
 INCH_MM = 25.4
-HALF_LAST_DIGIT = 0.5e-4
-_ATTEMPTS = 4  # rs274 prints lengths with "%.4f"
+HALF_LAST_DIGIT = 0.5e-4  # rs274 prints lengths with "%.4f"
 
 _PLANES = {"CANON_PLANE_XY": "XY", "CANON_PLANE_XZ": "ZX", "CANON_PLANE_YZ": "YZ"}
 
@@ -56,12 +57,12 @@ def run_rs274(path: Path, var_file: Path | None = None, tool_table: Path | None 
     # -b turns block delete on, as it is by default in vcnc (ipr.Setup.block_delete)
     cmd = ([require_rs274(), "-g", "-b"] + (["-v", str(var_file)] if var_file else [])
            + (["-t", str(tool_table)] if tool_table else []) + [str(path)])
-    # rs274 keeps its tool table in shared memory under a fixed key: runs of other processes at
-    # the same moment can crash it or swap tables, so a refusal is believed only when repeated
-    for _ in range(_ATTEMPTS):
-        done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120)
-        if done.returncode == 0:
-            break
+    # rs274 keeps its tool table in $HOME/.tool.mmap (LinuxCNC's tooldata_mmap.cc): runs of other
+    # processes at the same moment would share it (crashes, another run's tools), so each run
+    # gets a HOME of its own
+    with tempfile.TemporaryDirectory() as home:
+        done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120,
+                              env={**os.environ, "HOME": home})
     if done.returncode != 0:
         raise RuntimeError(f"rs274 rejected {path}: {done.stderr.strip()}")
     return done.stdout

@@ -32,11 +32,11 @@ SLOW_FRACTION = 0.5
 MIN_FEED_SKIP_MM = 1.0
 WINDOW_MM = 2.0
 DETAIL_MM = 250.0  # the zoomed part of the plot
-_NOT_FIGURES = ("trace", "feed_lines", "rpm", "program", "summary", "deviation_mm")  # a run's non-figures
+_NOT_FIGURES = ("trace", "feed_lines", "rpm", "program", "summary", "deviation_mm", "surface")  # a run's non-figures
 TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness model
 
 
-def _run(path: Path, config):
+def _run(path: Path, config, cut: dict | None = None):
     from ipr.entities import Arc, Line, Nurbs, Spindle
     from machine.controller import Controller
     from ipo.fit.convert import count_blocks
@@ -46,6 +46,14 @@ def _run(path: Path, config):
     sink = MemoryTrace(ctl.limits.meta())
     ctl.sinks = [sink]
     program = ctl.check(path)
+    workpiece = None
+    if cut is not None:
+        from machine.controller import start_position
+        from machine.workpiece.build import build_workpiece
+
+        workpiece, _ = build_workpiece(program, config, start_position(program), **cut)
+        ctl.sinks.append(workpiece)
+        ctl.on_event = workpiece.event
     result = ctl.run(program)
     if result.state != "completed":
         raise click.ClickException(f"{path}: the run ended {result.state}: {result.fault or ''}")
@@ -57,7 +65,8 @@ def _run(path: Path, config):
     text = path.read_bytes()
     return {"blocks": count_blocks(text.decode("utf-8", "replace")), "bytes": len(text),
             "time_s": float(result.cycle_time_s), "max_chord_error_um": float(result.max_chord_error_um),
-            "trace": trace, "feed_lines": feed_lines, "rpm": rpm, "program": program, "summary": result.summary()}
+            "trace": trace, "feed_lines": feed_lines, "rpm": rpm, "program": program, "summary": result.summary(),
+            "surface": None if workpiece is None else workpiece.surface()}
 
 
 def _cut_periods(run: dict):
@@ -135,15 +144,16 @@ def path_distances_mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return best
 
 
-def compare_programs(path_a, path_b, machine=None) -> dict:
-    """Both programs' figures, keyed "a" and "b" (plus "files")."""
+def compare_programs(path_a, path_b, machine=None, cut: dict | None = None) -> dict:
+    """Both programs' figures, keyed "a" and "b" (plus "files"); with `cut` (build_workpiece's stock_text,
+    tool, grid_um) both cut a workpiece and "surfaces" holds the machined surfaces' figures."""
     from ipo.config import default_config, load_config
 
     config = default_config() if machine is None else load_config(machine)
     out = {"files": [str(path_a), str(path_b)], "machine": str(machine) if machine else "(default)"}
     runs = {}
     for key, path in (("a", Path(path_a)), ("b", Path(path_b))):
-        run = _run(path, config)
+        run = _run(path, config, cut)
         runs[key] = run
         figs = {k: v for k, v in run.items() if k not in _NOT_FIGURES}
         figs.update(_feed_figures(run))
@@ -153,6 +163,10 @@ def compare_programs(path_a, path_b, machine=None) -> dict:
     runs["a"]["deviation_mm"] = path_distances_mm(pa, pb)
     out["a"]["path_distance_um"] = float(runs["a"]["deviation_mm"].max() * 1e3)
     out["b"]["path_distance_um"] = float(path_distances_mm(pb, pa).max() * 1e3)
+    if cut is not None:
+        from machine.workpiece.pair import compare_surfaces
+
+        out["surfaces"] = compare_surfaces(runs["a"]["surface"], runs["b"]["surface"])
     out["_runs"] = runs
     return out
 
@@ -220,15 +234,28 @@ def _plot(res: dict, out: str) -> None:
               help="Write a PNG: the two paths overlaid and their feed against distance.")
 @click.option("--report", "report_out", type=OutputPath((".html", ".htm")), default=None,
               help="Write an interactive one-file HTML report: both runs aligned by distance, their differences.")
+@click.option("--stock", "stock_text", help="Cut a virtual workpiece with both: XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm).")
+@click.option("--tool", type=int, help="The workpiece's tool (default: the program's T… M6, else [finishing]).")
+@click.option("--grid-um", type=float, help="Z-map spacing in um (default: from the tool and the chord tolerance).")
+@click.option("--surface-plot", "surface_plot", type=OutputPath((".png",)), default=None,
+              help="With --stock: both machined surfaces side by side and their difference.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
 def command(a: str, b: str, machine: str | None, plot_out: str | None, report_out: str | None,
+            stock_text: str | None, tool: int | None, grid_um: float | None, surface_plot: str | None,
             as_json: bool) -> None:
     """Run two programs in the same controller and compare them (002 Table 1)."""
     from ipo.config import ConfigError
     from machine.controller import ProgramRejected
 
+    from machine.workpiece.pair import cut_options
+    from machine.workpiece.stock import StockError
+    from machine.workpiece.tool import ToolError
+
+    cut = cut_options(stock_text, tool, grid_um, surface_plot)
     try:
-        res = compare_programs(a, b, machine)
+        res = compare_programs(a, b, machine, cut)
+    except (StockError, ToolError) as err:
+        raise click.ClickException(str(err)) from None
     except ProgramRejected as err:
         raise click.ClickException(f"program rejected:\n{err}") from None
     except ConfigError as err:
@@ -241,10 +268,20 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, report_ou
         table = [[label] + ["-" if x[key] is None else fmt.format(x[key]) for x in (res["a"], res["b"])]
                  for label, key, fmt in ROWS]
         compare_report(report_out, res["_runs"], res["files"], table, machine_info(machine))
+    if surface_plot:
+        from machine.workpiece.pair import plot_pair
+
+        plot_pair(res["_runs"]["a"]["surface"], res["_runs"]["b"]["surface"], surface_plot, res["files"])
     if as_json:
         click.echo(json.dumps({k: v for k, v in res.items() if k != "_runs"}, indent=1))
     else:
         click.echo(format_table(res))
+        if "surfaces" in res:
+            from machine.workpiece.pair import format_surfaces
+
+            click.echo(format_surfaces(res["surfaces"], res["files"]))
+        if surface_plot:
+            click.echo(f"surface plot: {surface_plot}")
         if plot_out:
             click.echo(f"plot: {plot_out}")
         if report_out:

@@ -55,7 +55,7 @@ def status_text(st, acknowledged: int, total: int, estimate=None, link=None) -> 
     if st is not None:
         pos = st.wpos or st.mpos
         state = st.state + (f":{st.substate}" if st.substate is not None else "")
-        text += f"  {state:<7} X{pos[0]:10.3f} Y{pos[1]:10.3f} Z{pos[2]:10.3f}"
+        text += f"  {state:<7} X{pos[0]:10.3f} Y{pos[1]:10.3f} Z{pos[2]:10.3f}" + ("" if st.wpos else " (machine)")
         if st.line is not None:
             text += f"  Ln {st.line}"
         if st.planner_free is not None:

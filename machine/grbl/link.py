@@ -42,6 +42,7 @@ class StreamResult:
     resume: ResumePoint | None = None  # where the next session continues (None after a lost connection)
     status: P.Status | None = None  # after the stream (after the reset, when it stopped)
     held: P.Status | None = None  # when a stop found grbl standing still, before the reset
+    before_hold: P.Status | None = None  # the last status before the feed hold went out
     rx_fill: list[int] = field(default_factory=list)  # unanswered bytes after each send
 
 
@@ -68,14 +69,24 @@ class GrblLink:
         self._last_rx = time.monotonic()
         self._realtime: queue.Queue[bytes] = queue.Queue()
         self._stop_reason: str | None = None
+        self.status_at_stop: P.Status | None = None  # the last status before a requested stop's hold
         self._stop_lock = threading.Lock()
         self.line_numbers = False  # the build reports Ln: lines go out with N<seq>
         self.options = ""
 
     def request_stop(self, reason: str) -> None:
-        """Stop the stream safely (hold, reset, resume line); safe from a signal handler or thread."""
+        """Stop the stream safely (hold, reset, resume line); safe from a signal handler or
+        thread. The feed hold goes out at once: grbl takes a realtime byte anywhere in
+        the stream, even inside a line, so no motion waits for the stream loop."""
         with self._stop_lock:
+            first = self._stop_reason is None
             self._stop_reason = self._stop_reason or reason
+        if first:
+            self.status_at_stop = self.status
+            try:
+                self._write(P.FEED_HOLD)
+            except (serial.SerialException, OSError):
+                pass  # the stream loop reports the closed port
 
     @property
     def stop_requested(self) -> str | None:

@@ -8,10 +8,10 @@ same way: feed hold `!`, wait until grbl reports Hold:0 (decelerated) or stands
 still, note its last status, soft-reset it (no alarm: it is not moving) and work out
 the resume line from what grbl actually executed:
 1. with line numbers (`$I` option N: every line starts with N<seq>), the status's
-   `Ln` names the line that was running;
+   `Ln` names the first line still in the planner (the one running, or the next);
 2. else the planner blocks still queued (status `Bf`, $10 bit 2): each line makes at
-   least one block, so only the last that many motion lines acknowledged may not
-   have run; everything before them has;
+   least one block, so only the last that many motion lines acknowledged (and the
+   one the stepper is finishing) may not have run; everything before them has;
 3. else the last planner-size + 1 motion lines before the last acknowledgement.
 Among those lines the machine position decides (`find_resume`). An `ok` only says
 grbl planned a line: before grbl starts the cycle (its RX buffer still holds lines,
@@ -90,7 +90,7 @@ def stream(link, lines: Iterable[StreamLine], ledger: Ledger, result, *,
                                          "or power)", 0, 0)
                     ledger.discard_waiting()
                 elif r.kind == "status" and draining:
-                    idle = link.status.state == "Idle"
+                    idle = link.status.state in ("Idle", "Check")  # Check: check mode ran every line
             if result.fault is None and link.stop_requested:
                 result.fault = Fault("stopped", f"stopped: {link.stop_requested}", 0, 0)
             if on_progress and now - t_prog >= progress_interval_s:
@@ -155,17 +155,23 @@ def _hold(link, ledger: Ledger) -> P.Status | None:
     return still
 
 
-def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None,
-            planner_blocks: int) -> list[StreamLine]:
+def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None, planner_blocks: int,
+            stepper: int) -> list[StreamLine]:
     """The lines that may not have run when grbl stood still (see the module's steps).
-    `held` is None where the planner's content is unknown (an alarm empties it)."""
+    `held` is None where the planner's content is unknown (an alarm empties it). grbl
+    drops a block from its planner once the stepper has taken all of it, before the
+    motion ends: the running line may be one before what `Ln` names and one more than
+    `Bf` counts; `stepper` = 1 widens the window by that line. (Only where the machine
+    is on none of the narrower window's lines: a closed path that ran would be taken
+    for one not started.)"""
     if held is not None and held.line is not None:
-        return [l for l in recent if l.seq >= held.line]
-    last_ok = ledger.last_acknowledged
-    idx = next((i for i, l in enumerate(recent) if l.seq > last_ok), len(recent))
-    queued = planner_blocks + 1
-    if held is not None and held.planner_free is not None:
-        queued = planner_blocks - held.planner_free
+        idx = next((i for i, l in enumerate(recent) if l.seq >= held.line), len(recent))
+        queued = stepper
+    else:
+        idx = next((i for i, l in enumerate(recent) if l.seq > ledger.last_acknowledged), len(recent))
+        queued = planner_blocks + 1
+        if held is not None and held.planner_free is not None:
+            queued = planner_blocks - held.planner_free + stepper
     motions = 0
     while idx > 0 and motions < queued:
         idx -= 1
@@ -176,6 +182,7 @@ def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None,
 def _stop(link, result, recent: deque[StreamLine]) -> None:
     """Hold, let the answers for lines grbl already has arrive, reset once still, find the resume line."""
     ledger = result.ledger
+    result.before_hold = link.status_at_stop or link.status
     held = _hold(link, ledger)
     result.held = held
     link.soft_reset(ledger)
@@ -184,10 +191,14 @@ def _stop(link, result, recent: deque[StreamLine]) -> None:
     if st.mpos is None:
         raise link.error("grbl gave no machine position after the reset")
     # an alarm resets grbl by itself: its planner was thrown away, Bf and Ln say nothing then
-    window = _window(list(recent), ledger, None if result.fault.kind == "alarm" else held, link.planner_blocks)
+    known = None if result.fault.kind == "alarm" else held
     try:
-        result.resume = find_resume(window, st.mpos) if window else \
-            ResumePoint(ledger.last_acknowledged + 1, False, st.mpos)
+        try:
+            window = _window(list(recent), ledger, known, link.planner_blocks, 0)
+            result.resume = find_resume(window, st.mpos) if window else \
+                ResumePoint(ledger.last_acknowledged + 1, False, st.mpos)
+        except ResumeError:
+            result.resume = find_resume(_window(list(recent), ledger, known, link.planner_blocks, 1), st.mpos)
     except ResumeError as exc:
         result.fault.message += f"; {exc}"
         return
@@ -198,6 +209,10 @@ def _stop(link, result, recent: deque[StreamLine]) -> None:
         result.fault.message += (f"; WARNING: grbl ran stream lines {result.fault.seq + 1}.."
                                  f"{result.resume.seq - 1} after rejecting line {result.fault.seq}, so "
                                  f"that line's motion was not made")
+    if held is not None and result.before_hold is not None and result.before_hold.mpos and held.mpos:
+        d = sum((a - b) ** 2 for a, b in zip(held.mpos, result.before_hold.mpos)) ** 0.5
+        result.fault.message += (f"; the feed hold stopped the machine {d:.3f} mm past the last position "
+                                 f"reported before it ({result.before_hold.state})")
     w = st.wpos or st.mpos
     result.fault.message += (f"; machine stopped at X{w[0]:.3f} Y{w[1]:.3f} Z{w[2]:.3f} (work), "
                              f"resume with --resume (or --resume-from {result.resume.seq})")

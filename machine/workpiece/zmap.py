@@ -48,11 +48,12 @@ class Workpiece:
         self._last = (np.asarray(start_mm, dtype=float) - self.offset_mm)[None, :]
         self._stamped = False
         self.wall_s = 0.0
+        self.cpu_s = 0.0
         self.counts = np.zeros(3, np.int64)  # tiles looked at, tiles evaluated, nodes evaluated
         self.periods = 0
 
     def write(self, rows: dict) -> None:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         pos = np.asarray(rows["pos_mm"], dtype=float) - self.offset_mm
         if len(pos):
             path = np.concatenate((self._last, pos))
@@ -65,6 +66,7 @@ class Workpiece:
             self._last = pos[-1:].copy()
             self.periods += len(pos)
         self.wall_s += time.perf_counter() - t0
+        self.cpu_s += time.process_time() - c0
 
     @property
     def nodes_evaluated(self) -> int:

@@ -2,15 +2,21 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ipo.config import Tool, default_config
 from machine.controller import Controller, start_position
+from machine.workpiece.analytic import (BOWL_STOCK, bowl_deviation, bowl_nurbs_program, bowl_polygon_program,
+                                        raster_program)
 from machine.workpiece.build import build_workpiece
+from machine.workpiece.figures import surface_figures
 from machine.workpiece.kernels import envelope
+from machine.workpiece.measure import profile_figures
 
 F32_MM = 2e-6  # the heights are stored in float32: 1 nm steps at these heights, 2 nm allowed
 
@@ -60,12 +66,7 @@ def test_envelope_is_the_minimum_over_the_segment():
 @pytest.mark.slow
 def test_ball_raster_leaves_the_classical_scallop(tmp_path):
     r, s, g_um = 3.0, 0.5, 5.0
-    lines = ["G21 G90 G94 G64 T1 M6 S10000 M3", "G0 X0 Y1 Z1", "G1 Z-1 F3000"]
-    for k in range(9):
-        y = 1 + k * s
-        lines += [f"G1 X8 Y{y:g}" if k % 2 == 0 else f"G1 X0 Y{y:g}", f"G1 Y{y + s:g}" if k < 8 else ""]
-    text = "\n".join(ln for ln in lines if ln) + "\nG0 Z5\nM2\n"
-    surf = cut(tmp_path, text, "0,0,-5,8,6,0", g_um)
+    surf = cut(tmp_path, raster_program(s, 9, 8.0, 1.0, 3000.0), "0,0,-5,8,6,0", g_um)
     ix = (surf.x_mm > 3) & (surf.x_mm < 5)
     iy = (surf.y_mm >= 2.0) & (surf.y_mm <= 4.0)
     z = surf.z_mm[np.ix_(iy, ix)]
@@ -74,6 +75,11 @@ def test_ball_raster_leaves_the_classical_scallop(tmp_path):
     # the cusp lies within g/2 of a node, where the surface's slope is (s/2)/r
     assert abs(measured - h) <= (s / 2) / r * (g_um / 2000) + F32_MM, (measured, h)
     assert np.allclose(z.min(), -1.0, atol=F32_MM)
+    # the same through the measurement: the scallop across the passes and their spacing
+    figs = surface_figures(surf, feed_axis="x")
+    assert figs["pass_spacing_mm"] == pytest.approx(s, abs=g_um / 1000)
+    assert abs(figs["scallop_um"] / 1e3 - h) <= (s / 2) / r * (g_um / 2000) + F32_MM
+    assert figs["classical_scallop_um"] == pytest.approx(h * 1e3, rel=1e-3)
 
 
 def test_flat_plunge_leaves_its_exact_disc(tmp_path):
@@ -91,7 +97,7 @@ def test_flat_plunge_leaves_its_exact_disc(tmp_path):
 @pytest.mark.slow
 def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
     tools = {3: Tool(shape="flat", diameter_mm=4.0, flutes=2), 1: Tool(ball_radius_mm=3.0)}
-    text = "G21 G90 G94 T3 M6\nG0 X2 Y5 Z1\nG1 Z-1 F300\nX8\nG0 Z5\nT1 M6\nG0 X2 Y12\nG1 Z-1\nX8\nG0 Z5\nM2\n"
+    text = "G21 G90 G94 T3 M6\nG0 X2 Y5 Z1\nG1 Z-1 F1200\nX8\nG0 Z5\nT1 M6\nG0 X2 Y12\nG1 Z-1\nX8\nG0 Z5\nM2\n"
     g_mm = 0.01
     surf = cut(tmp_path, text, "0,0,-5,10,16,0", g_mm * 1000, tools=tools)
     col = surf.z_mm[:, np.argmin(np.abs(surf.x_mm - 5.0))]
@@ -103,50 +109,29 @@ def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
     assert abs(np.count_nonzero(ball) * g_mm - 2 * math.sqrt(2 * 3.0 * 1.0 - 1.0)) <= g_mm
 
 
-RHO, TIP_CENTRE = 20.0, (10.0, 3.0, 18.0)  # the tip's circle in the XZ plane; the bowl is its lower 60 degrees
-
-
-def _bowl_deviation_um(surf, r=3.0):
-    """Radial distance of the machined profile at y = 3 inside the ideal bowl (ball along the exact circle)."""
-    j = int(np.argmin(np.abs(surf.y_mm - TIP_CENTRE[1])))
-    keep = (surf.x_mm > 3.0) & (surf.x_mm < 17.0)
-    x, z = surf.x_mm[keep], surf.z_mm[j, keep]
-    cx, cz = TIP_CENTRE[0], TIP_CENTRE[2] + r  # the ball centres' circle: same radius, r higher
-    return ((RHO + r) - np.hypot(x - cx, z - cz)) * 1e3
-
-
-def _bowl_polygon(n: int) -> str:
-    a = np.linspace(-2 * math.pi / 3, -math.pi / 3, n + 1)
-    cx, y, cz = TIP_CENTRE
-    pts = [f"X{cx + RHO * math.cos(t):.6f} Z{cz + RHO * math.sin(t):.6f}" for t in a]
-    return "\n".join(["G21 G90 G94 G64 T1 M6 S10000 M3", f"G0 {pts[0]} Y{y:g}", "G1 F1200 " + pts[0]]
-                     + [f"G1 {p}" for p in pts[1:]] + ["G0 Z25", "M2", ""])
-
-
 @pytest.mark.slow
 def test_g01_polygon_of_a_circle_leaves_facets_of_its_sagitta(tmp_path):
     n = 17
-    sagitta_um = RHO * (1 - math.cos(math.pi / 3 / n / 2)) * 1e3
-    surf = cut(tmp_path, _bowl_polygon(n), "0,0,-6,20,6,0", 10.0, g64_blend_tol_mm=0.0)
-    dev = _bowl_deviation_um(surf)
+    sagitta_mm = 20.0 * (1 - math.cos(math.pi / 3 / n / 2))  # the bowl: 60 degrees of a 20 mm circle
+    surf = cut(tmp_path, bowl_polygon_program(n), BOWL_STOCK, 10.0, g64_blend_tol_mm=0.0)
+    x, dev = bowl_deviation(surf, 3.0)
     # BLU rounding of the commanded positions moves the swept segments by up to ~0.7 um
-    assert abs(dev.max() - sagitta_um) <= 1.0, (dev.max(), sagitta_um)
-    assert abs(dev.min()) <= 1.0
+    assert abs(dev.max() - sagitta_mm) <= 1e-3, (dev.max(), sagitta_mm)
+    assert abs(dev.min()) <= 1e-3
+    fig = profile_figures(x, dev, form_removed=True)
+    assert fig.facet_depth_um == pytest.approx(sagitta_mm * 1e3, abs=1.0)
+    # each vertex prints where the ball's radius through it meets the surface: the chords' angle on a circle
+    # of radius rho + r, projected on X (cos of at most 30 degrees - 3 mm margin)
+    arc_mm = (20.0 + 3.0) * math.pi / 3 / n
+    assert arc_mm * math.cos(math.pi / 6) - 0.02 <= fig.facet_spacing_mm <= arc_mm + 0.02
 
 
 def test_the_same_circle_as_nurbs_leaves_no_facets(tmp_path):
-    cx, y, cz = TIP_CENTRE
-    end_z = cz - RHO * math.sin(math.pi / 3)
-    mid_z = cz - RHO / math.cos(math.pi / 6)
-    text = "\n".join(["G21 G90 G94 G64 T1 M6 S10000 M3", f"G0 X0 Y{y:g} Z{end_z:.6f}",
-                      f"G06.2 P3 K0 X0 Y{y:g} Z{end_z:.6f} R1 F1200",
-                      f"K0 X{cx:g} Z{mid_z:.6f} R{math.cos(math.pi / 6):.9f}",
-                      f"K0 X20 Z{end_z:.6f} R1", "K1", "K1", "K1", "G0 Z25", "M2", ""])
-    surf = cut(tmp_path, text, "0,0,-6,20,6,0", 10.0)
-    dev = _bowl_deviation_um(surf)
+    surf = cut(tmp_path, bowl_nurbs_program(), BOWL_STOCK, 10.0)
+    _, dev = bowl_deviation(surf, 3.0)
     config = default_config()
-    floor_um = (config.blu_mm + config.chord_tol_mm) * 1e3  # BLU rounding and the per-period chords
-    assert dev.max() - dev.min() <= floor_um, (dev.min(), dev.max())
+    floor_mm = config.blu_mm + config.chord_tol_mm  # BLU rounding and the per-period chords
+    assert dev.max() - dev.min() <= floor_mm, (dev.min(), dev.max())
 
 
 def test_the_period_rows_carry_the_spindle_angle(tmp_path):
@@ -188,3 +173,24 @@ def test_run_writes_the_surface_files(tmp_path):
     assert bad.exit_code == 2 and "six" in bad.output
     no_stock = CliRunner().invoke(main, ["run", str(prog), "--surface", str(out)])
     assert no_stock.exit_code == 2 and "no stock" in no_stock.output and "no axis moved" in no_stock.output
+
+
+def test_compare_cuts_both_programs_and_differs_by_the_facets(tmp_path):
+    from click.testing import CliRunner
+
+    from machine.cli import main
+
+    a, b, machine = tmp_path / "g01.nc", tmp_path / "nurbs.nc", tmp_path / "m.toml"
+    a.write_text(bowl_polygon_program(17))
+    b.write_text(bowl_nurbs_program())
+    default = Path(__file__).resolve().parents[2] / "programs" / "machine.toml"
+    machine.write_text(default.read_text().replace("g64_blend_tol_mm = 0.01", "g64_blend_tol_mm = 0.0"))
+    png = tmp_path / "pair.png"
+    res = CliRunner().invoke(main, ["compare", str(a), str(b), "--machine", str(machine), "--stock", BOWL_STOCK,
+                                    "--grid-um", "20", "--surface-plot", str(png), "--json"])
+    assert res.exit_code == 0, res.output
+    diff = json.loads(res.stdout)["surfaces"]["difference_um"]["max_abs"]
+    sagitta_um = 20.0 * (1 - math.cos(math.pi / 3 / 17 / 2)) * 1e3
+    # radial sagitta seen vertically on a bowl sloping up to 30 degrees, plus the BLU floor of both
+    assert sagitta_um - 1.0 <= diff <= sagitta_um / math.cos(math.pi / 6) + 2.0
+    assert png.stat().st_size > 10_000

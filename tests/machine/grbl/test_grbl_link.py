@@ -118,17 +118,25 @@ def test_error_on_a_line_stops_reports_and_resume_finishes():
     _assert_ran_once(d)
 
 
+<<<<<<< HEAD:tests/machine/grbl/test_grbl_link.py
 @pytest.mark.parametrize("arcs", [False, True])
 @pytest.mark.slow
 def test_hold_inside_a_block_resumes_from_the_machine_position(arcs):
+=======
+@pytest.mark.parametrize("arcs,early_discard", [(False, False), (True, False), (False, True), (True, True)])
+def test_hold_inside_a_block_resumes_from_the_machine_position(arcs, early_discard):
+>>>>>>> main:tests/test_grbl_link.py
     """A hold stops inside the running block (a line, or an arc): the resumed stream sends
     that line from where the machine stands (an arc with its IJK from there). Blocks take
     80 ms so that grbl still has blocks queued when the hold arrives on a loaded machine;
     with holds landing just past the joint of two semicircles this found that resume took
-    the earlier arc (its circle passes within the tolerance there) and re-sent nearly all of it."""
+    the earlier arc (its circle passes within the tolerance there) and re-sent nearly all of it.
+    With `early_discard` the running block has left grbl's planner (as on the real grbl
+    1.1h simulator): Bf counts one block less, and the resume still finds it."""
     lines = _semicircles() if arcs else LINES
     bad = next(l for l in lines if l.source_line == (25 if arcs else 46))
-    d = GrblDouble(drain_s_per_block=0.08, partial_blocks=True, faults=Faults(error_on={bad.text: 20}))
+    d = GrblDouble(drain_s_per_block=0.08, partial_blocks=True, faults=Faults(error_on={bad.text: 20}),
+                   early_discard=early_discard)
     with PtyServer(d).start() as srv:
         res, _ = _session(srv.port, lines)
         assert res.fault.kind == "error" and res.resume.partial  # stopped inside a block, not at its end

@@ -1,0 +1,160 @@
+"""What a machined surface shows: deviation from a reference, gouges with their program line, the scallop
+across the passes and the roughness and facets along them.
+
+Profiles are rows (along X) or columns (along Y) of the Z-map. Along the feed, a profile is measured as
+its deviation from the reference when there is one (the form removed exactly), else from its mean line,
+the ISO 16610-21 Gaussian filter with cut-off CUTOFF_MM (2.5 mm, ISO 4288's for Ra 2-10 um: longer than
+the chords of a finishing program, so facets stay in the roughness; a fifth of the profile where it is
+shorter than ISO's five cut-offs). Rz is the profile's peak-to-valley, Ra its mean absolute deviation
+from its mean. Facets are the arches between consecutive valleys of the deviation (the tool's path has a
+vertex over each valley; a valley must stand out by FACET_PROMINENCE of the profile's Rz): spacing is the valleys' median distance, depth the median height of each arch
+above the line joining its two valleys. The scallop across the passes is measured the same way on a
+profile across them, and set beside the classical cusp h = r - sqrt(r^2 - (s/2)^2).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import find_peaks
+
+from machine.workpiece.zmap import Surface
+
+NOISE_FLOOR_MM = 2e-5  # 0.02 um: arches lower than this are float32 noise, not facets
+FACET_PROMINENCE = 0.5  # a facet's valleys stand out by half the profile's Rz: BLU ripple does not split it
+CUTOFF_MM = 2.5
+GAUSS_ALPHA = math.sqrt(math.log(2.0) / math.pi)  # ISO 16610-21 weighting function
+
+
+@dataclass(frozen=True, slots=True)
+class ProfileFigures:
+    length_mm: float
+    rz_um: float
+    ra_um: float
+    facets: int
+    facet_spacing_mm: float | None
+    facet_depth_um: float | None
+
+    def as_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__slots__}
+
+
+def profile(surface: Surface, along: str, at_mm: float, lo_mm: float = -math.inf, hi_mm: float = math.inf,
+            reference: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(s_mm, d_mm): positions along X (along = "x", the row nearest y = at_mm) or Y, and the heights, or
+    their deviation from `reference` (same shape as z_mm) when given, restricted to [lo_mm, hi_mm]."""
+    values = surface.z_mm if reference is None else surface.z_mm - reference
+    if along == "x":
+        s, d = surface.x_mm, values[int(np.argmin(np.abs(surface.y_mm - at_mm)))]
+    else:
+        s, d = surface.y_mm, values[:, int(np.argmin(np.abs(surface.x_mm - at_mm)))]
+    keep = (s >= lo_mm) & (s <= hi_mm) & np.isfinite(d)
+    return s[keep], d[keep]
+
+
+def detrend(s_mm: np.ndarray, d_mm: np.ndarray) -> np.ndarray:
+    """The profile less its Gaussian mean line (the form, where no reference removes it); nan within one
+    cut-off of either end, where the mean line has no data on one side (ISO 16610-21's end effect)."""
+    from scipy.ndimage import gaussian_filter1d
+
+    if len(s_mm) < 3:
+        return d_mm - d_mm.mean()
+    step = float(s_mm[1] - s_mm[0])
+    cutoff = min(CUTOFF_MM, (s_mm[-1] - s_mm[0]) / 5.0)
+    sigma = GAUSS_ALPHA * cutoff / math.sqrt(2.0 * math.pi) / step
+    r = d_mm - gaussian_filter1d(d_mm, sigma, mode="nearest")
+    return np.where((s_mm >= s_mm[0] + cutoff) & (s_mm <= s_mm[-1] - cutoff), r, np.nan)
+
+
+def facets(s_mm: np.ndarray, d_mm: np.ndarray, arch_mm: np.ndarray | None = None,
+           floor_mm: float = NOISE_FLOOR_MM):
+    """Valley positions in d_mm, and each arch's height above the chord of its valleys (module docstring),
+    measured on arch_mm (default d_mm): the undetrended profile, so a mean line does not flatten the arches."""
+    if len(d_mm) < 3:
+        return s_mm[:0], np.zeros(0)
+    arch = d_mm if arch_mm is None else arch_mm
+    valleys, _ = find_peaks(-d_mm, prominence=max(floor_mm, FACET_PROMINENCE * float(np.ptp(d_mm))))
+    depths = []
+    for a, b in zip(valleys[:-1], valleys[1:]):
+        chord = np.interp(s_mm[a:b + 1], [s_mm[a], s_mm[b]], [arch[a], arch[b]])
+        depths.append(float(np.max(arch[a:b + 1] - chord)))
+    return s_mm[valleys], np.array(depths)
+
+
+def profile_figures(s_mm: np.ndarray, d_mm: np.ndarray, *, form_removed: bool) -> ProfileFigures:
+    r = d_mm if form_removed else detrend(s_mm, d_mm)
+    keep = np.isfinite(r)
+    s_mm, r, d_mm = s_mm[keep], r[keep], d_mm[keep]
+    at, depth = facets(s_mm, r, d_mm)
+    return ProfileFigures(
+        length_mm=float(np.ptp(s_mm)) if len(s_mm) else 0.0,
+        rz_um=float(np.ptp(r) * 1e3) if len(r) else 0.0,
+        ra_um=float(np.mean(np.abs(r - r.mean())) * 1e3) if len(r) else 0.0,
+        facets=len(depth),
+        facet_spacing_mm=float(np.median(np.diff(at))) if len(at) > 1 else None,
+        facet_depth_um=float(np.median(depth) * 1e3) if len(depth) else None)
+
+
+def classical_scallop_mm(r_mm: float, pick_mm: float) -> float:
+    """h = r - sqrt(r^2 - (s/2)^2), written without cancellation."""
+    half = pick_mm / 2.0
+    return half * half / (r_mm + math.sqrt(r_mm * r_mm - half * half))
+
+
+def gouges(surface: Surface, reference: np.ndarray, tol_mm: float) -> np.ndarray:
+    """gouge_line: the line that last cut each node left more than tol_mm below the reference, else 0."""
+    below = (surface.z_mm < reference - tol_mm) & (surface.line > 0)
+    return np.where(below, surface.line, 0).astype(np.int32)
+
+
+def gouge_report(gouge_line: np.ndarray, surface: Surface, reference: np.ndarray) -> list[dict]:
+    """One entry per program line that gouged: nodes, the deepest depth (um) and where."""
+    out = []
+    for ln in np.unique(gouge_line[gouge_line > 0]):
+        mask = gouge_line == ln
+        depth = np.where(mask, reference - surface.z_mm, -np.inf)
+        j, i = np.unravel_index(int(np.argmax(depth)), depth.shape)
+        out.append({"line": int(ln), "nodes": int(mask.sum()), "depth_um": float(depth[j, i] * 1e3),
+                    "x_mm": float(surface.x_mm[i]), "y_mm": float(surface.y_mm[j])})
+    return sorted(out, key=lambda g: -g["depth_um"])
+
+
+def analytic_reference(surface: Surface, z_of_xy) -> np.ndarray:
+    """A reference surface given as z = f(x, y) on the grid."""
+    X, Y = np.meshgrid(surface.x_mm, surface.y_mm)
+    return np.asarray(z_of_xy(X, Y), dtype=float)
+
+
+def iges_reference(surface: Surface, path, chunk: int = 200_000) -> np.ndarray:
+    """The IGES surfaces' heights over the grid (nan off them): the vertical through each node meets a
+    patch where S_xy(u, v) = (x, y), solved by Newton from the nearest of a dense parameter sample; the
+    highest patch wins where several lie over a node."""
+    from scipy.spatial import cKDTree
+
+    from ipo.surface.evaluation import grid, surface_derivs
+    from ipo.surface.iges import read_surfaces
+
+    X, Y = np.meshgrid(surface.x_mm, surface.y_mm)
+    q = np.column_stack((X.ravel(), Y.ravel()))
+    out = np.full(len(q), np.nan)
+    for surf in read_surfaces(path):
+        u_s, v_s = grid(surf, 120, 120)
+        tree = cKDTree(surface_derivs(surf, u_s, v_s)[0][:, :2])
+        (u_lo, u_hi), (v_lo, v_hi) = surf.u_range, surf.v_range
+        for a in range(0, len(q), chunk):
+            qq = q[a:a + chunk]
+            _, k = tree.query(qq)
+            u, v = u_s[k], v_s[k]
+            for _ in range(12):
+                s, s_u, s_v = surface_derivs(surf, u, v)
+                r = qq - s[:, :2]
+                det = s_u[:, 0] * s_v[:, 1] - s_u[:, 1] * s_v[:, 0]
+                det = np.where(np.abs(det) > 1e-300, det, 1e-300)
+                u = np.clip(u + (r[:, 0] * s_v[:, 1] - r[:, 1] * s_v[:, 0]) / det, u_lo, u_hi)
+                v = np.clip(v + (s_u[:, 0] * r[:, 1] - s_u[:, 1] * r[:, 0]) / det, v_lo, v_hi)
+            s = surface_derivs(surf, u, v)[0]
+            hit = np.hypot(*(qq - s[:, :2]).T) <= 1e-6
+            cur = out[a:a + chunk]
+            out[a:a + chunk] = np.where(hit & ~(cur >= s[:, 2]), s[:, 2], cur)
+    return out.reshape(X.shape)
