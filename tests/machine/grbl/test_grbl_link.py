@@ -118,14 +118,9 @@ def test_error_on_a_line_stops_reports_and_resume_finishes():
     _assert_ran_once(d)
 
 
-<<<<<<< HEAD:tests/machine/grbl/test_grbl_link.py
-@pytest.mark.parametrize("arcs", [False, True])
-@pytest.mark.slow
-def test_hold_inside_a_block_resumes_from_the_machine_position(arcs):
-=======
 @pytest.mark.parametrize("arcs,early_discard", [(False, False), (True, False), (False, True), (True, True)])
+@pytest.mark.slow
 def test_hold_inside_a_block_resumes_from_the_machine_position(arcs, early_discard):
->>>>>>> main:tests/test_grbl_link.py
     """A hold stops inside the running block (a line, or an arc): the resumed stream sends
     that line from where the machine stands (an arc with its IJK from there). Blocks take
     80 ms so that grbl still has blocks queued when the hold arrives on a loaded machine;
