@@ -4,8 +4,6 @@ ways. The written file is checked with scipy's BSpline (rational: the homogeneou
 weight) and brute-force distances to the original path, never with the fit's own evaluator."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -15,7 +13,6 @@ from ipr.entities import Arc, Line, Nurbs
 from ipo.fit.chains import rounding_radius_mm
 from ipo.fit.convert import convert_text, count_blocks, rounding_bound_mm
 
-CORPUS = Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc"
 
 
 def _scipy_points(nb: Nurbs, per_span: int = 200) -> np.ndarray:
@@ -183,9 +180,11 @@ def test_fitted_program_runs_without_limit_violations(tmp_path):
 
 @pytest.mark.parametrize("name", ["g1_lhchips4.ngc"])
 def test_corpus_chains_within_tolerance(name):
-    path = CORPUS / name
+    from conftest import require_corpus
+
+    path = require_corpus() / name
     if not path.exists():
-        pytest.skip(f"{path} is absent (../shared/corpus is not part of the repository)")
+        pytest.skip(f"{path} is absent")
     text = "\n".join(path.read_text().split("\n")[:160]) + "\nM2\n"
     out, rep = convert_text(text, 0.01, jobs=1)
     before, after = parse_text(text).entities, parse_text(out).entities
