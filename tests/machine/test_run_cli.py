@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from machine.cli import main
 from machine.trace import load_trace
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "programs" / "demo.nc"
 MACHINE = (ROOT / "ipo" / "machine.toml").read_text()
 
@@ -55,6 +55,7 @@ def test_demo_runs_along_the_programmed_path(tmp_path):
 
 
 @pytest.mark.parametrize("suffix", [".npz", ".csv"])
+@pytest.mark.slow
 def test_trace_and_plot(tmp_path, suffix):
     trace_path, png = tmp_path / f"t{suffix}", tmp_path / "run.png"
     r = vcnc("run", DEMO, "--json", "--trace", trace_path, "--plot", png)
