@@ -143,7 +143,7 @@ def test_bad_input():
     with pytest.raises(ValueError):
         convert_text("G1 X1 F100\n", 0.01, degree=7)
     with pytest.raises(GCodeError):
-        convert_text("G1 X1 F100\nG41 X2\n", 0.01)
+        convert_text("G1 X1 F100\nG33 X2 K1\n", 0.01)
 
 
 def test_vcnc_fit_command(tmp_path):
