@@ -82,6 +82,7 @@ def main() -> None:
     t0 = time.perf_counter()
     files = programs(args.dirs)
     outcomes: dict[Path, str] = {}
+    moving: set[Path] = set()   # rs274 makes at least one move (not a subroutine library alone)
     rejected_by_rs274 = 0
     for path in files:
         moves = rs274_moves(path)
@@ -89,6 +90,8 @@ def main() -> None:
             rejected_by_rs274 += 1
             continue
         outcomes[path] = compare(path, moves)
+        if moves:
+            moving.add(path)
     agree = sum(1 for o in outcomes.values() if o == "agree")
     refused = Counter(o.split(":")[0] for o in outcomes.values() if o != "agree")
     if args.list:
@@ -97,6 +100,9 @@ def main() -> None:
     print(f"\n{len(files)} programs found, rs274 accepts {len(outcomes)} (rejects {rejected_by_rs274})")
     print(f"vcnc accepts with the same end points: {agree} / {len(outcomes)} = "
           f"{100.0 * agree / max(len(outcomes), 1):.1f} %")
+    agree_moving = sum(1 for p in moving if outcomes[p] == "agree")
+    print(f"  of those where rs274 moves at all: {agree_moving} / {len(moving)} = "
+          f"{100.0 * agree_moving / max(len(moving), 1):.1f} %")
     print("not agreeing, by first error code: " + ", ".join(f"{k} {n}" for k, n in refused.most_common()))
     print(f"({time.perf_counter() - t0:.0f} s)")
 

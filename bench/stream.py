@@ -66,20 +66,27 @@ def _call_and_response(link: GrblLink, lines) -> float:
     return time.perf_counter() - t0
 
 
-def throughput(n_lines: int = 4000) -> None:
-    lines = _zigzag(n_lines)
-    n_bytes = sum(len(l.text) + 1 for l in lines)
-    double = GrblDouble(drain_s_per_block=0.0)
+def _timed_stream(lines, reference_lines=()):
+    """Stream `lines` through a fresh double with no drain limit: (result, seconds, double,
+    seconds for `reference_lines` sent call-and-response afterwards)."""
+    double = GrblDouble(drain_s_per_block=0.0, wco=(0.0, 0.0, 0.0))
     with PtyServer(double).start() as srv:
         link = GrblLink(srv.port, poll_interval_s=0.2, settle_s=0.05)
         link.connect(CFG)
         t0 = time.perf_counter()
         res = link.stream(lines, Ledger(1))
-        t_count = time.perf_counter() - t0
-        assert res.completed, res.fault
-        ref_lines = lines[: n_lines // 4]
-        t_ref = _call_and_response(link, ref_lines)
+        dt = time.perf_counter() - t0
+        t_ref = _call_and_response(link, reference_lines)
         link.close()
+    assert res.completed, res.fault
+    return res, dt, double, t_ref
+
+
+def throughput(n_lines: int = 4000) -> None:
+    lines = _zigzag(n_lines)
+    n_bytes = sum(len(l.text) + 1 for l in lines)
+    ref_lines = lines[: n_lines // 4]
+    res, t_count, double, t_ref = _timed_stream(lines, ref_lines)
     fill = np.array(res.rx_fill[20:-20])
     ref_rate = len(ref_lines) / t_ref
     print(f"grbl test double over a pty, no drain limit, {len(lines)} lines, {n_bytes} bytes "
@@ -187,16 +194,7 @@ def _verbose(line) -> str:
 
 
 def _rate(lines) -> float:
-    double = GrblDouble(drain_s_per_block=0.0, wco=(0.0, 0.0, 0.0))
-    with PtyServer(double).start() as srv:
-        link = GrblLink(srv.port, poll_interval_s=0.2, settle_s=0.05)
-        link.connect(CFG)
-        t0 = time.perf_counter()
-        res = link.stream(lines, Ledger(1))
-        dt = time.perf_counter() - t0
-        link.close()
-    assert res.completed, res.fault
-    return len(lines) / dt
+    return len(lines) / _timed_stream(lines)[1]
 
 
 def compactness() -> None:

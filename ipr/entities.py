@@ -24,6 +24,23 @@ Plane = Literal["XY", "ZX", "YZ"]
 PLANE_AXES: dict[str, tuple[int, int, int]] = {"XY": (0, 1, 2), "ZX": (2, 0, 1), "YZ": (1, 2, 0)}
 
 
+class FromFile:
+    """`file`: None for an entity of the program itself, the path of the subroutine file it
+    came from otherwise (set by ipr.program_counter with `set_file`). A slot outside the
+    dataclass fields, so that constructing an entity costs no more (the IPO builds millions)."""
+
+    __slots__ = ("_file",)
+
+    @property
+    def file(self) -> str | None:
+        return getattr(self, "_file", None)
+
+
+def set_file(entity, file: str) -> None:
+    """Mark an entity as coming from a subroutine file (entities are otherwise immutable)."""
+    object.__setattr__(entity, "_file", file)
+
+
 @dataclass(frozen=True, slots=True)
 class PathControl:
     """G61 exact stop, or G64 continuous with optional P blend and Q merge tolerances."""
@@ -38,20 +55,19 @@ CONTINUOUS = PathControl()
 
 
 @dataclass(frozen=True, slots=True)
-class Rapid:
+class Rapid(FromFile):
     """G0: straight traverse at the machine's rapid rate."""
 
     line: int
     start: Vec3
     end: Vec3
     path: PathControl = CONTINUOUS
-    file: str | None = None
 
     feed_mm_s = None
 
 
 @dataclass(frozen=True, slots=True)
-class Line:
+class Line(FromFile):
     """G1: straight feed move."""
 
     line: int
@@ -59,11 +75,10 @@ class Line:
     end: Vec3
     feed_mm_s: float
     path: PathControl = CONTINUOUS
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class Arc:
+class Arc(FromFile):
     """G2/G3: circular (or helical) feed move.
 
     `center` lies in the plane of `start` (its normal-axis coordinate equals the
@@ -81,7 +96,6 @@ class Arc:
     feed_mm_s: float
     turns: int = 0
     path: PathControl = CONTINUOUS
-    file: str | None = None
 
     @property
     def radius_mm(self) -> float:
@@ -104,7 +118,7 @@ class Arc:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class Nurbs:
+class Nurbs(FromFile):
     """A NURBS curve: G06.2 (Fanuc), G6.2 and G5.2 (LinuxCNC) all become this.
 
     `knots` has len(points) + degree + 1 entries, clamped (first and last repeated
@@ -120,7 +134,6 @@ class Nurbs:
     points: np.ndarray
     feed_mm_s: float
     path: PathControl = CONTINUOUS
-    file: str | None = None
 
     @property
     def start(self) -> Vec3:
@@ -132,74 +145,67 @@ class Nurbs:
 
 
 @dataclass(frozen=True, slots=True)
-class Dwell:
+class Dwell(FromFile):
     """G4 P: stand still for `seconds`."""
 
     line: int
     seconds: float
-    file: str | None = None
 
 
 Motion = Union[Rapid, Line, Arc, Nurbs]
 
 
 @dataclass(frozen=True, slots=True)
-class Spindle:
+class Spindle(FromFile):
     """M3/M4/M5 with S: `rpm` is the programmed speed, direction None means stopped."""
 
     line: int
     rpm: float
     direction: Literal["cw", "ccw"] | None
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class Coolant:
+class Coolant(FromFile):
     """M7/M8/M9."""
 
     line: int
     mist: bool
     flood: bool
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class ToolChange:
+class ToolChange(FromFile):
     """M6 with T."""
 
     line: int
     tool: int
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class Message:
+class Message(FromFile):
     """(MSG, ...) comment."""
 
     line: int
     text: str
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class Stop:
+class Stop(FromFile):
     """M0 (optional=False) or M1 (optional=True) program stop."""
 
     line: int
     optional: bool
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class ProgramEnd:
+class ProgramEnd(FromFile):
     """M2 or M30."""
 
     line: int
-    file: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
-class Auxiliary:
+class Auxiliary(FromFile):
     """A code the virtual machine records and passes on without acting on it: M19 spindle
     orient, M48..M53 override switches, M61 tool number, M62..M68 digital and analog I/O,
     G96/G97 spindle speed mode, the machine file's M100..M199, a dialect's bookkeeping

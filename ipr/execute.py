@@ -20,6 +20,10 @@ from ipr.errors import BlockError
 from ipr.mcodes import execute_mcodes
 from ipr.modal import INCH_MM, Setup, Staged, rotate_xy, target, to_machine
 
+# a helix of more turns than this is refused: its samples alone would fill memory (a thread
+# milled in one block has a few dozen turns)
+MAX_ARC_TURNS = 1000
+
 _PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
 _SPINDLE = {30: "cw", 40: "ccw", 50: None}
 _BASIC_M = {"stop", "coolant"}   # M groups handled here; the rest (and M6's group) in ipr.mcodes
@@ -244,8 +248,9 @@ def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, di
     turns = 0
     if "P" in idx:
         p = vals[idx["P"]]
-        if p != round(p) or p < 1:
-            raise BlockError("E-VALUE", f"arc turns P{p:g} must be a whole number >= 1", idx["P"])
+        if not (p == round(p) and 1 <= p <= MAX_ARC_TURNS):
+            raise BlockError("E-VALUE", f"arc turns P{p:g} must be a whole number from 1 to {MAX_ARC_TURNS}",
+                             idx["P"])
         turns = int(p) - 1
     ccw = st.motion == 30
     if "R" in idx:

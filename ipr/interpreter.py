@@ -38,6 +38,13 @@ def spec_letter(spec: BlockSpec, word: int) -> str:
     return "G/M"
 
 
+
+def _exponent_note(text: str, col: int) -> str:
+    """What an error at an E right after a digit (`X1e5`, `R1E-15`) most likely means."""
+    if 1 < col <= len(text) and text[col - 1] in "eE" and (text[col - 2].isdigit() or text[col - 2] == "."):
+        return " (exponent notation is not G-code: the E starts a word of its own; write the number out)"
+    return ""
+
 class Interpreter:
     """Feeds lines one at a time; `out` receives entities, `diagnostics` errors,
     `warnings` warnings and notices. Raises GCodeError at the first error unless
@@ -72,7 +79,7 @@ class Interpreter:
                     col = parse_line_columns(text)[1][err.word]
                 except (LineSyntaxError, IndexError):
                     col = 1
-        diag = Diagnostic(self.file, err.line or line, col, err.code, err.message)
+        diag = Diagnostic(self.file, err.line or line, col, err.code, err.message + _exponent_note(text, col))
         self.diagnostics.append(diag)
         if not self.all_errors:
             raise GCodeError([diag])

@@ -18,9 +18,9 @@ nested calls (E-CALL-DEPTH), so a runaway program is an error at its line, never
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
+from ipr.entities import set_file
 from ipr.errors import BlockError
 from ipr.expressions import evaluate
 from ipr.oword import OWord
@@ -117,9 +117,9 @@ class Executor:
         interp.file = src.file
         mark = len(interp.out)
         last = interp.run(lines, pc)
-        if src is not self.main and len(interp.out) > mark:
-            out = interp.out
-            out[mark:] = [dataclasses.replace(e, file=src.file) for e in out[mark:]]
+        if src is not self.main:
+            for e in interp.out[mark:]:
+                set_file(e, src.file)
         self.last_line = last
         control = interp.control
         if control is None:

@@ -62,7 +62,8 @@ class RunResult:
     max_axis_jerk_mm_s3: list[float]
     accel_stencil_periods: int
     limit_violations: int
-    limit_violations_by_kind: dict[str, int]
+    limit_violations_by_kind: dict[str, int | str]  # jerk: "not checked" in trapezoid mode
+    limits_checked: str  # the configured axis limits (velocity; accel[; jerk]) the periods were held to
     max_chord_error_um: float
     max_contour_error_um: float | None
     deadline_misses: int | None
@@ -82,6 +83,10 @@ class RunResult:
         out["position_mm"] = [round(v, 6) for v in self.position_mm]
         return out
 
+
+
+def _axes(values) -> str:
+    return " ".join(f"{float(v):g}" for v in values)
 
 class Controller:
     """One machine configuration, one run at a time."""
@@ -114,14 +119,14 @@ class Controller:
             raise ProgramRejected([f"{path}: cannot read the program: {err.strerror or err}"]) from None
         motions = [e for e in program.entities if isinstance(e, MOTION_TYPES)]
         start = np.array(start_position(program))
-        reasons = [f"{program.file}:{line}: error[E-TRAVEL]: {why}"
+        reasons = [f"{program.file}:{line}:1: error[E-TRAVEL]: {why}"
                    for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
         end_gap = nurbs_end_gap_mm(self.config)
-        reasons += [f"{program.file}:{e.line}: error[E-NURBS-PATH]: {why}" for e in motions
+        reasons += [f"{program.file}:{e.line}:1: error[E-NURBS-PATH]: {why}" for e in motions
                     if isinstance(e, Nurbs) and (why := planning_problem(e, end_gap)) is not None]
         outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
         if outside.any():
-            reasons.insert(0, f"{program.file}:0: error[E-TRAVEL]: the start position {start.tolist()} mm "
+            reasons.insert(0, f"{program.file}:0:1: error[E-TRAVEL]: the start position {start.tolist()} mm "
                               f"is outside the travel")
         if reasons:
             raise ProgramRejected(reasons)
@@ -207,7 +212,12 @@ class Controller:
     def _result(self, program, drive, state, fault, wall, stops, messages, player) -> RunResult:
         st = drive.stats
         sim = drive.t_s
-        kinds = {"velocity": st.velocity_violations, "accel": st.accel_violations, "jerk": st.jerk_violations}
+        lim = self.limits
+        # trapezoid mode steps the acceleration by design: its jerk is measured, not held to a limit
+        kinds = {"velocity": st.velocity_violations, "accel": st.accel_violations,
+                 "jerk": st.jerk_violations if lim.check_jerk else "not checked"}
+        checked = (f"{_axes(lim.max_velocity_mm_s)} mm/s; {_axes(lim.max_accel_mm_s2)} mm/s^2"
+                   + (f"; {_axes(lim.max_jerk_mm_s3)} mm/s^3" if lim.check_jerk else ""))
         return RunResult(
             file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
             cycle_time_s=sim, periods=st.periods,
@@ -217,7 +227,8 @@ class Controller:
             max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],
             max_axis_jerk_mm_s3=[round(float(v), 1) for v in st.max_jerk_mm_s3],
             accel_stencil_periods=self.limits.stencil_periods(),
-            limit_violations=sum(kinds.values()), limit_violations_by_kind=kinds,
+            limit_violations=sum(v for v in kinds.values() if isinstance(v, int)), limit_violations_by_kind=kinds,
+            limits_checked=checked,
             max_chord_error_um=st.max_chord_error_mm * 1e3,
             max_contour_error_um=None if st.max_contour_error_mm is None else st.max_contour_error_mm * 1e3,
             deadline_misses=None if player is None else player.deadline_misses,

@@ -254,7 +254,7 @@ def test_a_nurbs_the_planner_cannot_walk_is_rejected_before_anything_moves(tmp_p
                     "K0 X20 Y5\nK0 X20 Y5\nK1 X20 Y5\nK2 X25 Y10\nK3 X30 Y10\nK4\nK4\nK4\nK4\nG1 X40 Y10\nM2\n")
     with pytest.raises(ProgramRejected) as info:
         Controller(default_config()).check(path)
-    assert any(":4: error[E-NURBS-PATH]: NURBS has a vanishing derivative" in r for r in info.value.reasons)
+    assert any(":4:1: error[E-NURBS-PATH]: NURBS has a vanishing derivative" in r for r in info.value.reasons)
 
 
 def test_servo_model_from_the_machine_file_reports_contour_error():

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from click.testing import CliRunner
 
 from grbl_emulator import DEFAULT_SETTINGS, GrblDouble, PtyServer
@@ -78,3 +80,20 @@ def test_mdi_console_sends_lines_and_reports_answers():
     assert res.exit_code == 0, res.output
     assert "[GC:G0 G54" in res.output and "error:20" in res.output
     assert d.pos == [5.0, -2.0, 0.0]
+
+
+def test_job_time_of_one_line_is_the_trapezoid_time():
+    """100 mm at 10 mm/s from standstill to standstill: L/v + v/a (trapezoid, no jerk limit)."""
+    import dataclasses
+
+    from ipr.entities import Line
+    from machine.grbl.estimate import JobEstimate
+    from machine.grbl.program import stream_lines
+
+    cfg = dataclasses.replace(default_config(), accel_mode="trapezoid")
+    ents = [Line(1, (0.0, 0.0, 0.0), (100.0, 0.0, 0.0), 10.0)]
+    lines = list(stream_lines(ents, cfg))
+    est = JobEstimate.plan(ents, lines, cfg, (0.0, 0.0, 0.0))
+    a = min(ax.max_accel_mm_s2 for ax in cfg.axes)
+    assert est.total_s == pytest.approx(100.0 / 10.0 + 10.0 / a, abs=3 * cfg.period_s)
+    assert est.remaining_s(1) == est.total_s and est.remaining_s(2) == 0.0

@@ -38,6 +38,7 @@ from ipr.entities import Line, Nurbs
 # corners next to NURBS are crossed as they are, so cutting there would change nothing)
 CORNER_MIN_RAD = 1e-4
 _SAME_POINT_MM = 1e-12  # control points closer than this are the same point
+_MAX_SPEED_RATIO = 1e6  # even_speed rescales knots by at most this
 # length of a stalled end machined as a chord (a hundredth of the finest BLU the machine file allows)
 END_TRIM_MM = 1e-8
 
@@ -92,10 +93,15 @@ def even_speed(e: Nurbs) -> Nurbs:
         return e
     for f in firsts:  # left to right: each scaling moves the knots of the ones after it
         u, c = knots[f], f - 1  # C(u) = points[c]
+        span_left, span_right = u - knots[c], knots[c + p + 1] - u
+        if not (span_left > 0 and span_right > 0):
+            continue
         # one-sided |C'(u)| of the two clamped halves (The NURBS Book eq. 4.9 at their ends)
-        left = p * w[c - 1] / w[c] * np.linalg.norm(pts[c] - pts[c - 1]) / (u - knots[c])
-        right = p * w[c + 1] / w[c] * np.linalg.norm(pts[c + 1] - pts[c]) / (knots[c + p + 1] - u)
-        if left > 0 and right > 0:
+        left = p * w[c - 1] / w[c] * np.linalg.norm(pts[c] - pts[c - 1]) / span_left
+        right = p * w[c + 1] / w[c] * np.linalg.norm(pts[c + 1] - pts[c]) / span_right
+        # a ratio beyond _MAX_SPEED_RATIO (extreme weights) would squeeze the later knots together
+        # in floating point, which changes the curve: those keep their parametrisation
+        if left > 0 and right > 0 and 1 / _MAX_SPEED_RATIO <= right / left <= _MAX_SPEED_RATIO:
             knots[c + p + 1:] = u + right / left * (knots[c + p + 1:] - u)
     knots.setflags(write=False)
     return dataclasses.replace(e, knots=knots)

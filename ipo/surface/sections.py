@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 _SPLIT = re.compile(r"\s*[,;]\s*|\s+")
+MAX_COORDINATE_MM = 1e5
 
 
 class SectionsError(ValueError):
@@ -46,6 +47,9 @@ def _number(token: str, where: str) -> float:
         raise SectionsError(f"{where}: '{token}' is not a number") from None
     if not math.isfinite(value):
         raise SectionsError(f"{where}: '{token}' is not a finite number (NaN or infinity)")
+    if abs(value) > MAX_COORDINATE_MM:
+        raise SectionsError(f"{where}: {value:g} mm is beyond {MAX_COORDINATE_MM:g} mm of the origin "
+                            "(a digitised part within 100 m; the fits' least squares lose all precision beyond)")
     return value
 
 
@@ -126,7 +130,11 @@ def parse_sections(text: str, file: str = "<string>", *, min_points: int = 2) ->
 
 def read_sections(path: str | Path, *, min_points: int = 2) -> Sections:
     path = Path(path)
-    return parse_sections(path.read_text(encoding="utf-8"), str(path), min_points=min_points)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise SectionsError(f"{path}: not a text file of points (not UTF-8 at byte {err.start})") from None
+    return parse_sections(text, str(path), min_points=min_points)
 
 
 def orient_like_first(sections: Sections) -> tuple[Sections, list[int]]:

@@ -114,6 +114,8 @@ def skin_patches(fits: list[RationalFit], per_patch: int | None = None, continui
     The v degree is the sections' degree (at most a patch's section count - 1); where the
     interpolated weights would not all stay positive, the next lower degree is used (degree 1
     blends neighbouring sections' homogeneous points convexly, so its weights are positive)."""
+    if len(fits) < 2:
+        raise ValueError(f"a surface is skinned through two or more sections; the points hold {len(fits)}")
     groups = [(0, len(fits) - 1)] if per_patch is None else patch_groups(len(fits), per_patch)
     top = min(fits[0].degree, min(b - a for a, b in groups))
     for degree_v in range(top, 0, -1):

@@ -3,11 +3,29 @@ constant the chords are, how many curve evaluations it took and how fast it ran.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import click
 
 from machine.commands import INPUT_FILE, OutputPath
+
+
+MAX_STEPS = 20_000_000  # steps (or pulses) of one study: its arrays stay within about a gigabyte
+
+
+def _check_steps(program, step_um: float, option: str) -> None:
+    """Refuse a step that is not a length, or so small that the study would not end in memory."""
+    from machine.commands.parse import path_length_mm
+
+    if not (math.isfinite(step_um) and step_um > 0):
+        raise click.BadParameter(f"must be a length > 0, got {step_um:g}", param_hint=option)
+    length_mm = sum(path_length_mm(e) for e in program.entities)
+    steps = length_mm / (step_um * 1e-3)
+    if steps > MAX_STEPS:
+        raise click.BadParameter(f"{step_um:g} um along the program's {length_mm:.6g} mm of path is {steps:.3g} steps; "
+                                 f"at most {MAX_STEPS:,} (a step of at least {length_mm * 1e3 / MAX_STEPS:.3g} um)",
+                                 param_hint=option)
 
 
 @click.command()
@@ -43,6 +61,11 @@ def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_eva
         program = parse_file(file)
     except GCodeError as exc:
         raise click.ClickException(str(exc)) from exc
+    _check_steps(program, step_um, "--step-um")
+    if pulse:
+        _check_steps(program, blu_um, "--blu-um")
+    if not 0 < du <= 1:
+        raise click.BadParameter(f"must be in (0, 1], got {du:g}", param_hint="--du")
     options = dict(method=method, n1=n1, m1=m1, start_tol_pct=start_tol_pct, chord_tol_pct=chord_tol_pct,
                    max_evals=max_evals, du=du)
     try:

@@ -18,6 +18,10 @@ def _load_program(path):
         raise click.ClickException(str(err)) from None
 
 
+def _stdout_is_terminal() -> bool:
+    return sys.stdout.isatty()
+
+
 def _dry_run(protocol, file, program, config, resume_from) -> None:
     out = sys.stdout.buffer
     if protocol == "increments":
@@ -93,7 +97,7 @@ def _stream_increments(port, baud, program, config) -> None:
 def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlock, resume, ledger_file, estimate,
             poll_hz):
     """Stream FILE to a grbl 1.1 board or an increment-protocol drive."""
-    if dry_run and protocol == "increments" and sys.stdout.isatty():
+    if dry_run and protocol == "increments" and _stdout_is_terminal():
         raise click.UsageError("--dry-run with --protocol increments writes binary frames: "
                                "redirect stdout to a file or a pipe")
     config = load_machine(machine_file)

@@ -98,6 +98,7 @@ def _resume_point(link, job, ledger_path, resume_from, session):
     """Where a resumed stream continues: the ledger's resume point, else the machine
     position within the lines the last session may not have run."""
     from machine.grbl.resume import find_resume
+    from machine.grbl.streamer import window
 
     lines = job.lines
     if resume_from is not None:
@@ -108,17 +109,11 @@ def _resume_point(link, job, ledger_path, resume_from, session):
     if session.resume is not None:
         seq = session.resume[0]
         return link.resume_point(l for l in lines if l.seq >= seq)[0]
-    # killed outright: grbl ran what it had; the lines from planner + 1 motions before the
-    # last acknowledged one to the last sent bound where the machine can be
-    last_ok, last_sent = session.last_acknowledged, session.last_sent
-    idx = next((i for i, l in enumerate(lines) if l.seq > last_ok), len(lines))
-    motions = 0
-    while idx > 0 and motions <= link.planner_blocks:
-        idx -= 1
-        motions += lines[idx].motion
-    window = [l for l in lines[idx:] if l.seq <= last_sent + 1] or lines[idx:idx + 1]
+    # killed outright: grbl ran what it had (connect waited for it to stop); the machine
+    # position decides among the lines the planner may have held, up to the last sent
+    lines = [l for l in lines if l.seq <= session.last_sent + 1]
     st = link.query_status()
-    return find_resume(window, st.mpos)
+    return find_resume(window(lines, session.last_acknowledged, None, link.planner_blocks, 0), st.mpos)
 
 
 def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, unlock, poll_hz, estimate_time):

@@ -49,8 +49,8 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
         dev = deviation_from_points(skinned.surface, fits.fits, secs.points, skinned.section_v)
         curves = [RationalCurve(f.degree, f.knots, f.weights, f.points) for f in fits.fits]
         write_iges(out, [skinned.surface], curves, description=f"vcnc surface from {os.path.basename(points)}")
-    except (SectionsError, ValueError) as err:
-        raise click.ClickException(str(err)) from None
+    except (SectionsError, ValueError, np.linalg.LinAlgError) as err:
+        raise click.ClickException(f"{points}: {err}" if not str(err).startswith(str(points)) else str(err)) from None
     surf = skinned.surface
     n_pts = sum(len(q) for q in secs.points)
     kind = "shared rational weights" if fits.rational else "weights 1 (a polynomial fit met the tolerance)"

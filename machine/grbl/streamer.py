@@ -155,10 +155,11 @@ def _hold(link, ledger: Ledger) -> P.Status | None:
     return still
 
 
-def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None, planner_blocks: int,
-            stepper: int) -> list[StreamLine]:
-    """The lines that may not have run when grbl stood still (see the module's steps).
-    `held` is None where the planner's content is unknown (an alarm empties it). grbl
+def window(recent: list[StreamLine], last_ok: int, held: P.Status | None, planner_blocks: int,
+           stepper: int) -> list[StreamLine]:
+    """The lines that may not have run when grbl stood still (see the module's steps);
+    `last_ok` the last line acknowledged in an unbroken run of oks. `held` is None where
+    the planner's content is unknown (an alarm empties it, a killed session never saw it). grbl
     drops a block from its planner once the stepper has taken all of it, before the
     motion ends: the running line may be one before what `Ln` names and one more than
     `Bf` counts; `stepper` = 1 widens the window by that line. (Only where the machine
@@ -168,7 +169,7 @@ def _window(recent: list[StreamLine], ledger: Ledger, held: P.Status | None, pla
         idx = next((i for i, l in enumerate(recent) if l.seq >= held.line), len(recent))
         queued = stepper
     else:
-        idx = next((i for i, l in enumerate(recent) if l.seq > ledger.last_acknowledged), len(recent))
+        idx = next((i for i, l in enumerate(recent) if l.seq > last_ok), len(recent))
         queued = planner_blocks + 1
         if held is not None and held.planner_free is not None:
             queued = planner_blocks - held.planner_free + stepper
@@ -194,11 +195,12 @@ def _stop(link, result, recent: deque[StreamLine]) -> None:
     known = None if result.fault.kind == "alarm" else held
     try:
         try:
-            window = _window(list(recent), ledger, known, link.planner_blocks, 0)
-            result.resume = find_resume(window, st.mpos) if window else \
+            lines = window(list(recent), ledger.last_acknowledged, known, link.planner_blocks, 0)
+            result.resume = find_resume(lines, st.mpos) if lines else \
                 ResumePoint(ledger.last_acknowledged + 1, False, st.mpos)
         except ResumeError:
-            result.resume = find_resume(_window(list(recent), ledger, known, link.planner_blocks, 1), st.mpos)
+            lines = window(list(recent), ledger.last_acknowledged, known, link.planner_blocks, 1)
+            result.resume = find_resume(lines, st.mpos)
     except ResumeError as exc:
         result.fault.message += f"; {exc}"
         return
