@@ -55,8 +55,10 @@ def _inside(side: int, turn: int) -> bool:
     return (side == LEFT and turn > 0) or (side == RIGHT and turn < 0)
 
 
-def turn_on(st, spec, vals, radius_of, code: int) -> None:
-    """G41/G42 (D: tool number, or the tool in the spindle), G41.1/G42.1 (D: diameter)."""
+def turn_on(st, spec, vals, radius_of, code: int, notices: list) -> None:
+    """G41/G42 (D: tool number, or the tool in the spindle), G41.1/G42.1 (D: diameter). A tool
+    missing from the tool table has radius zero (a warning, as for G43); with radius zero the
+    moves run as programmed, as in LinuxCNC."""
     where = spec.where["comp"]
     if st.plane != "XY":
         raise BlockError("E-COMP", "cutter radius compensation works in the XY plane only (G17)", where)
@@ -77,11 +79,12 @@ def turn_on(st, spec, vals, radius_of, code: int) -> None:
         tool = st.tool_in_spindle if d is None else int(d)
         radius = radius_of(tool)
         if radius is None:
-            raise BlockError("E-COMP", f"tool {tool} has no radius in the tool table (tools.{tool}.radius_mm)",
-                             spec.index.get("D", where))
+            notices.append(("W-TOOL-UNKNOWN", f"tool D{tool} is not in the tool table: zero cutter radius, "
+                            "the moves run as programmed", spec.index.get("D")))
+            radius = 0.0
     if radius < 0.0:
         radius, side = -radius, -side
-    st.comp = Comp(side, radius, True, st.pos, st.pos)
+    st.comp = Comp(side, radius, True, st.pos, st.pos) if radius > 0.0 else None
 
 
 def turn_off(st, out: list) -> None:

@@ -59,7 +59,8 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
     if comp == 400:
         cutter_comp.turn_off(st, out)
     elif comp is not None:
-        cutter_comp.turn_on(st, spec, vals, lambda t: (offsets.tool_entry(st, setup, t) or (None, None))[1], comp)
+        cutter_comp.turn_on(st, spec, vals, lambda t: (offsets.tool_entry(st, setup, t) or (None, None))[1], comp,
+                            notices)
     nonmodal = g.get("nonmodal")
     if st.comp is not None and st.comp.side and (nonmodal in (100, 280, 300, 530, 920, 520) or "g92_apply" in g):
         raise BlockError("E-COMP", "G10, G28, G30, G52, G53 and G92 cannot be used with cutter radius "

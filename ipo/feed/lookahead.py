@@ -38,7 +38,7 @@ def _bounds(t, kv, k, x, a_max, scale):
 
 
 @njit(cache=True)
-def _interval_rows(t, kv, k, d, a_max, scale, rows):
+def interval_rows(t, kv, k, d, a_max, scale, rows):
     """The axis limits at both ends of interval k as rows (p, q, r) of p x_k + q x_k+1 <= r,
     with s'' = (x_k+1 - x_k) / d constant in between (d = 2 ds): |t_i s'' + kv_i x| <= scale A_i
     at either end, for every axis moving there (what _bounds allows, as one linear system
@@ -60,7 +60,7 @@ def _interval_rows(t, kv, k, d, a_max, scale, rows):
 
 
 @njit(cache=True)
-def _max_start(rows, m, a_top, b_top):
+def max_start(rows, m, a_top, b_top):
     """Largest x_k (<= a_top) with some x_k+1 in [0, b_top] meeting every row: a 2-variable
     linear programme, solved at the vertices of its polygon. -1 if none is feasible."""
     n = m + 4
@@ -95,7 +95,7 @@ def _max_start(rows, m, a_top, b_top):
 
 
 @njit(cache=True)
-def _end_range(rows, m, a):
+def end_range(rows, m, a):
     """Range [lo, hi] of x_k+1 that the rows allow from x_k = a (lo > hi: none)."""
     lo = 0.0
     hi = _BIG
@@ -125,8 +125,8 @@ def backward(s, t, kv, cap, a_max, ascale, x_end):
         if ds <= 0.0:
             xb[k] = min(cap[k], xn)
             continue
-        m = _interval_rows(t, kv, k, 2.0 * ds, a_max, ascale[k], rows)
-        xk = _max_start(rows, m, min(cap[k], _BIG), xn)
+        m = interval_rows(t, kv, k, 2.0 * ds, a_max, ascale[k], rows)
+        xk = max_start(rows, m, min(cap[k], _BIG), xn)
         xb[k] = max(xk, 0.0)  # 0 always meets the rows (s'' = 0 between two stops)
     return xb
 
@@ -145,8 +145,8 @@ def forward(s, t, kv, xb, a_max, ascale, x0):
         if ds <= 0.0:
             x[k + 1] = min(xk, xb[k + 1])
             continue
-        m = _interval_rows(t, kv, k, 2.0 * ds, a_max, ascale[k], rows)
-        lo, hi = _end_range(rows, m, xk)
+        m = interval_rows(t, kv, k, 2.0 * ds, a_max, ascale[k], rows)
+        lo, hi = end_range(rows, m, xk)
         if lo <= hi + 1e-9 * max(1.0, hi):  # riding a cap, the range closes to rounding
             # above xb only while braking at the limit
             x[k + 1] = max(min(hi, xb[k + 1]), min(lo, hi))

@@ -94,8 +94,10 @@ class FeedPlanner:
             # spreads it over 2 A / J seconds, a jerk of J / 2
             self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
-        self._blend_r_min = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
-        self._g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
+        # the corner settings pieces.build takes (S-curve mode: arcs no tighter than this; the
+        # curvature-continuous corners' limits), public so that a study can force arcs
+        self.min_blend_radius_mm = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
+        self.g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
         # the output side runs the filter; the planner reads only its span (fir.m)
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
         self._rpm = 0.0
@@ -191,7 +193,8 @@ class FeedPlanner:
             return
         built = build(motions, final=final, lead_trim_mm=self._trim, blend_default_mm=self.cfg.g64_blend_tol_mm,
                       rapid_mm_s=self.cfg.rapid_mm_s, drivers=win.drivers, next_index=win.n_drivers,
-                      make_driver=self._driver, min_blend_radius_mm=self._blend_r_min, g2_limits=self._g2_limits)
+                      make_driver=self._driver, min_blend_radius_mm=self.min_blend_radius_mm,
+                      g2_limits=self.g2_limits)
         win.apply(built.drivers.changed, built.drivers.added)
         if final:
             motions.clear()

@@ -167,10 +167,12 @@ def _write_pictures(digest, plot_file, report_file, program, result, machine_fil
 @click.option("--tool", "tool", type=int, help="The tool cutting the workpiece from the start (default: the "
               "program's first T… M6, else the [finishing] tool).")
 @click.option("--grid-um", type=float, help="Z-map spacing in um (default: from the tool and the chord tolerance).")
+@click.option("--teeth", is_flag=True, help="Cut with the flutes' edges at the spindle angle (tooth-pass marks; "
+              "slower) instead of the tool's solid of revolution.")
 @click.option("--surface", "surface_files", multiple=True, type=OutputPath((".npz", ".stl", ".png")),
               help="Write the machined surface: .npz (x_mm, y_mm, z_mm, gouge_line), .stl or .png; repeatable.")
 def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, report_file, realtime,
-            optional_stop, as_json, stock_text, tool, grid_um, surface_files):
+            optional_stop, as_json, stock_text, tool, grid_um, teeth, surface_files):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.report.digest import DigestSink
@@ -178,7 +180,7 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
 
     config = load_machine(machine_file)
-    cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config)
+    cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth)
     if period_ms is not None:
         from ipo.config import ConfigError, with_period
 
@@ -204,7 +206,7 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         sys.exit(1)
     for warning in program.warnings:
         click.echo(str(warning), err=True)
-    workpiece = start_workpiece(program, config, stock_text, tool, grid_um) if cutting else None
+    workpiece = start_workpiece(program, config, stock_text, tool, grid_um, teeth) if cutting else None
     if workpiece is not None:
         shown = controller.on_event
         controller.on_event = lambda e: (workpiece.event(e), shown(e))

@@ -23,7 +23,7 @@ def initial_tool(program, config, tool: int | None) -> tuple[int, str]:
 
 
 def build_workpiece(program, config, start_mm, *, stock_text: str | None = None, tool: int | None = None,
-                    grid_um: float | None = None) -> tuple[Workpiece, str]:
+                    grid_um: float | None = None, teeth: bool = False) -> tuple[Workpiece, str]:
     """The workpiece and a one-line description of it; StockError / ToolError name what is wrong."""
     if stock_text is not None:
         stock = Stock.parse(stock_text)
@@ -41,6 +41,6 @@ def build_workpiece(program, config, start_mm, *, stock_text: str | None = None,
         grid_mm = default_grid_mm(cutter, config.chord_tol_mm, pick)
     grid = Grid.over(stock, grid_mm)
     offset = config.work_offsets_mm.get("G54", (0.0, 0.0, 0.0))
-    wp = Workpiece(stock, grid, cutter, start_mm=start_mm, offset_mm=offset, tools=config.tools)
+    wp = Workpiece(stock, grid, cutter, start_mm=start_mm, offset_mm=offset, tools=config.tools, teeth=teeth)
     text = (f"workpiece: {cutter.describe()} ({source}), grid {grid_mm * 1000:g} um, {grid.nx} x {grid.ny} nodes")
     return wp, text

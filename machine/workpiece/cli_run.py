@@ -10,7 +10,7 @@ from machine.workpiece.stock import Stock, StockError
 from machine.workpiece.tool import ToolError
 
 
-def check_surface_outputs(surface_files, stock_text, tool, grid_um, config) -> bool:
+def check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth=False) -> bool:
     """Before anything runs (the output paths are checked by their option type): the workpiece options;
     True when the run cuts a workpiece."""
     if stock_text is not None:
@@ -21,18 +21,18 @@ def check_surface_outputs(surface_files, stock_text, tool, grid_um, config) -> b
     if grid_um is not None and not grid_um > 0:
         raise click.BadParameter(f"must be > 0, got {grid_um}", param_hint="--grid-um")
     wanted = bool(surface_files) or stock_text is not None
-    if not wanted and (tool is not None or grid_um is not None):
-        raise click.UsageError("--tool and --grid-um set up the workpiece: add --surface (and --stock)")
+    if not wanted and (tool is not None or grid_um is not None or teeth):
+        raise click.UsageError("--tool, --grid-um and --teeth set up the workpiece: add --surface (and --stock)")
     return wanted
 
 
-def start_workpiece(program, config, stock_text, tool, grid_um):
+def start_workpiece(program, config, stock_text, tool, grid_um, teeth=False):
     from machine.controller import start_position
     from machine.workpiece.build import build_workpiece
 
     try:
         workpiece, text = build_workpiece(program, config, start_position(program), stock_text=stock_text,
-                                          tool=tool, grid_um=grid_um)
+                                          tool=tool, grid_um=grid_um, teeth=teeth)
     except (StockError, ToolError) as err:
         click.echo(f"{program.file}: not run: {err}; no axis moved", err=True)
         sys.exit(2)

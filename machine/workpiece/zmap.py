@@ -37,7 +37,7 @@ class Workpiece:
     """Stock, grid, cutter and the height field; `write(rows)` cuts one batch of periods."""
 
     def __init__(self, stock: Stock, grid: Grid, cutter: Cutter, *, start_mm, offset_mm=(0.0, 0.0, 0.0),
-                 tools: dict | None = None):
+                 tools: dict | None = None, teeth: bool = False):
         self.stock, self.grid, self.cutter = stock, grid, cutter
         self.tools = tools or {}
         self.offset_mm = np.asarray(offset_mm, dtype=float)
@@ -47,6 +47,8 @@ class Workpiece:
         self._tile_max = np.full((-(-grid.ny // TILE), -(-grid.nx // TILE)), top)
         self._last = (np.asarray(start_mm, dtype=float) - self.offset_mm)[None, :]
         self._stamped = False
+        self.teeth = teeth  # cut with the flutes' edges at the rows' spindle angles (tooth-pass marks)
+        self._spindle = np.zeros(1)
         self.wall_s = 0.0
         self.cpu_s = 0.0
         self.counts = np.zeros(3, np.int64)  # tiles looked at, tiles evaluated, nodes evaluated
@@ -57,13 +59,16 @@ class Workpiece:
         pos = np.asarray(rows["pos_mm"], dtype=float) - self.offset_mm
         if len(pos):
             path = np.concatenate((self._last, pos))
+            spindle = np.concatenate((self._spindle, rows["spindle_rad"])) if self.teeth else self._spindle
             c = self.cutter
             sweep(self.z, self.line, self._tile_max, self.grid.origin_x, self.grid.origin_y,
                                           self.grid.grid_mm, float(self.stock.min_mm[2]), path,
                                           np.asarray(rows["line"], dtype=np.int32), c.core_mm, c.corner_mm,
-                                          not self._stamped, self.counts)
+                                          not self._stamped, self.counts, spindle,
+                                          c.flutes if self.teeth else 0)
             self._stamped = True
             self._last = pos[-1:].copy()
+            self._spindle = spindle[-1:].copy()
             self.periods += len(pos)
         self.wall_s += time.perf_counter() - t0
         self.cpu_s += time.process_time() - c0
@@ -81,7 +86,7 @@ class Workpiece:
     def warm_up(self) -> None:
         """Load the compiled kernel now, outside the timed removal."""
         sweep(np.zeros((1, 1), np.float32), np.zeros((1, 1), np.int32), np.zeros((1, 1)), 0.0, 0.0, 1.0, 0.0,
-              np.zeros((2, 3)), np.zeros(1, np.int32), 0.0, 1.0, False, np.zeros(3, np.int64))
+              np.zeros((2, 3)), np.zeros(1, np.int32), 0.0, 1.0, False, np.zeros(3, np.int64), np.zeros(2), 0)
 
     def surface(self) -> Surface:
         meta = {"grid_mm": self.grid.grid_mm, "stock_min_mm": list(self.stock.min_mm),

@@ -17,7 +17,7 @@ from ipo.feed.split import corner_knots, corner_parts
 from ipo.contracts import PeriodBatch
 from ipr import parse_text
 from ipr.entities import EXACT_STOP, Line, Message, Nurbs, PathControl
-from tests.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
+from tests.ipo.feed.test_nurbs_blend import (CFG, DELTA, A, F, P, T, assert_forward_to_the_end, assert_within_limits,
                                     blend_radius, bspline_points, corner_feed, distance_to_polyline, run_scurve)
 
 G64P = PathControl(blend_tol_mm=P)

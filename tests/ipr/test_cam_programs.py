@@ -15,7 +15,7 @@ import ipr
 from ipr.entities import Line, Rapid
 from machine.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CAM = ROOT / "tests" / "cam"
 PROGRAMS = sorted(p for p in CAM.iterdir() if p.suffix in (".nc", ".ngc", ".tap"))
 TOOLS = {1: (0.0, 3.0), 2: (20.0, 2.5), 3: (30.0, 1.5)}   # tool -> (length, radius) mm

@@ -16,8 +16,8 @@ import pytest
 from ipo.config import ConfigError, load_config
 from ipo.feed.planner import plan_periods
 from ipo.contracts import PeriodBatch
-from tests.test_nurbs_blend import CFG, assert_forward_to_the_end, assert_within_limits
-from tests.test_nurbs_corners import random_cubic
+from tests.ipo.feed.test_nurbs_blend import CFG, assert_forward_to_the_end, assert_within_limits
+from tests.ipo.feed.test_nurbs_corners import random_cubic
 
 
 @pytest.mark.parametrize("method, seed", [("taylor1", 1), ("taylor1", 20), ("taylor2", 15), ("taylor2", 18),
@@ -38,7 +38,7 @@ def test_constant_du_is_refused_by_the_feed_stage(tmp_path):
     with pytest.raises(ValueError, match="cannot follow a feed profile"):
         list(plan_periods([e], dataclasses.replace(CFG, method="constant-du"), start_mm=e.start))
     toml = tmp_path / "m.toml"
-    default = (Path(__file__).resolve().parents[1] / "ipo" / "machine.toml").read_text()
+    default = (Path(__file__).resolve().parents[3] / "ipo" / "machine.toml").read_text()
     toml.write_text(re.sub(r'(?m)^method = "recursive"', 'method = "constant-du"', default))
     with pytest.raises(ConfigError, match="^method: "):
         load_config(toml)

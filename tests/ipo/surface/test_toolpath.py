@@ -21,7 +21,7 @@ from ipr.entities import Nurbs
 from machine.cli import main
 from surface_cases import bump, cylinder
 
-MACHINE = Path(__file__).resolve().parents[1] / "programs" / "finish_machine.toml"
+MACHINE = Path(__file__).resolve().parents[3] / "programs" / "finish_machine.toml"
 R, PICK, TOL = 3.0, 2.5, 0.005
 
 

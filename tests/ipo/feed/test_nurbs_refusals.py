@@ -56,6 +56,7 @@ def _on_curve_mm(curve: Nurbs, pos: np.ndarray) -> np.ndarray:
     return out
 
 
+@pytest.mark.slow
 def test_a_derivative_vanishing_at_both_ends_is_machined_along_the_limit_tangent(tmp_path):
     # first and last control points doubled: C'(0) = C'(1) = 0
     text = ("G21 G90 G17 G61\nG0 X0 Y0 Z0\n"

@@ -16,7 +16,7 @@ from machine.increments.link import IncrementLink
 from machine.increments.receiver import IncrementReceiver, PtyEndpoint, SocketEndpoint
 
 CFG = default_config()
-DEMO = Path(__file__).resolve().parents[1] / "programs" / "demo.nc"
+DEMO = Path(__file__).resolve().parents[2] / "programs" / "demo.nc"
 
 
 def test_crc_is_ccitt_false():

@@ -39,6 +39,7 @@ def cut(tmp_path, text: str, stock: str, grid_um: float, *, tools=None, tool=Non
     return wp.surface()
 
 
+@pytest.mark.slow
 def test_envelope_is_the_minimum_over_the_segment():
     """Closed forms (ball, flat) and the bisection (bull) against a dense sampling of t."""
     rng = np.random.default_rng(7)
@@ -62,6 +63,7 @@ def test_envelope_is_the_minimum_over_the_segment():
             assert ref - 2e-4 <= got <= ref + 1e-12
 
 
+@pytest.mark.slow
 def test_ball_raster_leaves_the_classical_scallop(tmp_path):
     r, s, g_um = 3.0, 0.5, 5.0
     surf = cut(tmp_path, raster_program(s, 9, 8.0, 1.0, 3000.0), "0,0,-5,8,6,0", g_um)
@@ -92,6 +94,7 @@ def test_flat_plunge_leaves_its_exact_disc(tmp_path):
     assert set(np.unique(surf.line[rho < 2.0])) == {3}
 
 
+@pytest.mark.slow
 def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
     tools = {3: Tool(shape="flat", diameter_mm=4.0, flutes=2), 1: Tool(ball_radius_mm=3.0)}
     text = "G21 G90 G94 T3 M6\nG0 X2 Y5 Z1\nG1 Z-1 F1200\nX8\nG0 Z5\nT1 M6\nG0 X2 Y12\nG1 Z-1\nX8\nG0 Z5\nM2\n"
@@ -106,6 +109,7 @@ def test_slot_at_constant_depth_has_the_tool_width(tmp_path):
     assert abs(np.count_nonzero(ball) * g_mm - 2 * math.sqrt(2 * 3.0 * 1.0 - 1.0)) <= g_mm
 
 
+@pytest.mark.slow
 def test_g01_polygon_of_a_circle_leaves_facets_of_its_sagitta(tmp_path):
     n = 17
     sagitta_mm = 20.0 * (1 - math.cos(math.pi / 3 / n / 2))  # the bowl: 60 degrees of a 20 mm circle
@@ -179,7 +183,7 @@ def test_compare_cuts_both_programs_and_differs_by_the_facets(tmp_path):
     a, b, machine = tmp_path / "g01.nc", tmp_path / "nurbs.nc", tmp_path / "m.toml"
     a.write_text(bowl_polygon_program(17))
     b.write_text(bowl_nurbs_program())
-    default = Path(__file__).resolve().parents[1] / "programs" / "machine.toml"
+    default = Path(__file__).resolve().parents[2] / "programs" / "machine.toml"
     machine.write_text(default.read_text().replace("g64_blend_tol_mm = 0.01", "g64_blend_tol_mm = 0.0"))
     png = tmp_path / "pair.png"
     res = CliRunner().invoke(main, ["compare", str(a), str(b), "--machine", str(machine), "--stock", BOWL_STOCK,

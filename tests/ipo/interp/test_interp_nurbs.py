@@ -327,7 +327,7 @@ def test_corpus_curves_adaptive_meet_the_bar(path):
     assert np.concatenate(evals).mean() <= 2.5
 
 
-PROGRAMS = Path(__file__).resolve().parents[1] / "programs"
+PROGRAMS = Path(__file__).resolve().parents[3] / "programs"
 
 
 def test_curve000_is_like_the_papers():

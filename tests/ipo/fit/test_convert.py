@@ -143,7 +143,7 @@ def test_bad_input():
     with pytest.raises(ValueError):
         convert_text("G1 X1 F100\n", 0.01, degree=7)
     with pytest.raises(GCodeError):
-        convert_text("G1 X1 F100\nG41 X2\n", 0.01)
+        convert_text("G1 X1 F100\nG33 X2 K1\n", 0.01)
 
 
 def test_vcnc_fit_command(tmp_path):
@@ -185,7 +185,7 @@ def test_vcnc_compare_circles_side_by_side(tmp_path):
 
     from machine.cli import main
 
-    progs = Path(__file__).resolve().parents[1] / "programs"
+    progs = Path(__file__).resolve().parents[3] / "programs"
     a, b = progs / "circle_g1_360.nc", progs / "circle_nurbs.nc"
     png = tmp_path / "cmp.png"
     res = CliRunner().invoke(main, ["compare", str(a), str(b), "--json", "--plot", str(png)])
@@ -214,7 +214,7 @@ def test_vcnc_compare_roughness_of_an_inclined_cut(tmp_path, target):
     # a straight cut inclined at atan(20/50) = 21.8 deg: the tool tip does not cut, so 002 eq. 2 holds,
     # R(f_i) = (f_p^2 + (f_i - f_p / 2 pi)^2) / 8r, smallest at f_i = f_p / 2 pi and (f_p^2 + (f_p / 2 pi)^2)
     # / 8r where the feed falls to 0 at the two ends. F2400 with S12500 and two flutes is f_i = 0.096 mm.
-    toml = (Path(__file__).resolve().parents[1] / "programs" / "finish_machine.toml").read_text()
+    toml = (Path(__file__).resolve().parents[3] / "programs" / "finish_machine.toml").read_text()
     machine = tmp_path / "m.toml"
     machine.write_text(re.sub(r"(?m)^roughness_target_um = .*$", f"roughness_target_um = {target}", toml))
     prog = tmp_path / "incline.nc"
@@ -247,7 +247,7 @@ def test_vcnc_compare_roughness_needs_a_cut_that_moves_a_blu(tmp_path):
 
     # 2 um at F0.05 (0.8 nm a period): over the 11 periods of a slope chord the commanded position
     # moves by at most one BLU, mostly by none: the slope is taken from the nearest period that moved
-    machine = Path(__file__).resolve().parents[1] / "programs" / "finish_machine.toml"
+    machine = Path(__file__).resolve().parents[3] / "programs" / "finish_machine.toml"
     prog = tmp_path / "crawl.nc"
     prog.write_text("G21 G90 G17 G64\nS12500 M3\nG0 X0 Y0 Z0\nG1 X0.002 Z-0.001 F0.05\nM5\nM2\n")
     res = CliRunner().invoke(main, ["compare", str(prog), str(prog), "--machine", str(machine), "--json"])

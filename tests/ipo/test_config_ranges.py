@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from ipo.config import RANGES, ConfigError, load_config
 from machine.controller import Controller, ProgramRejected
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DEFAULT = tomllib.loads((REPO / "programs" / "machine.toml").read_text())
 FINISHING = {"tool": 1, "pick_feed_mm": 0.2, "roughness_target_um": 3.0}
 PROGRAM = """G21 G90 G17 G94 G64

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from machine.cli import main
 from machine.trace import load_trace
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "programs" / "demo.nc"
 MACHINE = (ROOT / "ipo" / "machine.toml").read_text()
 
@@ -55,6 +55,7 @@ def test_demo_runs_along_the_programmed_path(tmp_path):
 
 
 @pytest.mark.parametrize("suffix", [".npz", ".csv"])
+@pytest.mark.slow
 def test_trace_and_plot(tmp_path, suffix):
     trace_path, png = tmp_path / f"t{suffix}", tmp_path / "run.png"
     r = vcnc("run", DEMO, "--json", "--trace", trace_path, "--plot", png)
@@ -84,7 +85,7 @@ def test_feed_override_and_period_change_the_run():
 
 def test_program_errors_refuse_the_run_with_every_reason(tmp_path):
     bad = tmp_path / "bad.nc"
-    bad.write_text("G21 G90\nG1 X10 F600\nG1 G2 X5\nG1 X20 Y10\nG41 X3\nM2\n")
+    bad.write_text("G21 G90\nG1 X10 F600\nG1 G2 X5\nG1 X20 Y10\nG33 X3 K1\nM2\n")
     trace_path = tmp_path / "t.npz"
     r = vcnc("run", bad, "--trace", trace_path)
     assert r.exit_code == 1

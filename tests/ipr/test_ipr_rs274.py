@@ -64,6 +64,7 @@ def mismatches(moves: list[CanonMove], entities: list) -> list[str]:
 
 
 @pytest.mark.parametrize("path", corpus_files("g1_*.ngc"))
+@pytest.mark.slow
 def test_corpus_matches_rs274(path: Path) -> None:
     """The corpus's G0–G3 programs (all of them, stellabee1's 169k lines included: ~1 s in rs274)."""
     require_rs274()
@@ -356,6 +357,7 @@ def _accepts(src: Path) -> tuple[bool, str]:
     return True, ""
 
 
+@pytest.mark.slow
 def test_accepts_and_rejects_like_rs274(tmp_path: Path) -> None:
     require_rs274()
     problems = []

@@ -82,7 +82,7 @@ def test_warnings_go_to_stderr_and_do_not_fail(tmp_path):
 
 def test_machine_file_gives_offsets_and_tools(tmp_path):
     machine = tmp_path / "m.toml"
-    text = (Path(__file__).resolve().parents[1] / "programs" / "machine.toml").read_text()
+    text = (Path(__file__).resolve().parents[2] / "programs" / "machine.toml").read_text()
     machine.write_text(text.replace("G54 = [0.0, 0.0, 0.0]", "G54 = [0.0, 0.0, 0.0]\nG55 = [100.0, 0.0, -5.0]")
                        .replace("length_mm = 0.0", "length_mm = 40.0", 1))
     result, _ = _run(tmp_path, "G55 G0 X1\nG43 H1 G0 Z0\n", "--json", "--machine", str(machine))

@@ -97,6 +97,7 @@ def test_c0_knots_and_split_against_the_whole_surface():
 
 
 @pytest.mark.parametrize("along", ["u", "v"])
+@pytest.mark.slow
 def test_oblique_planar_ridge_is_never_gouged(tmp_path, along):
     surf, k0, k1 = roof_planes()
     if along == "v":  # the same ridge, crossed by passes along the surface's v
@@ -180,6 +181,7 @@ def test_a_surface_that_jumps_at_a_knot_is_refused():
         plan_passes(gap, ToolpathSettings(R, PICK, TOL))
 
 
+@pytest.mark.slow
 def test_three_ridges_of_a_degree_one_prism(tmp_path):
     """Degree 1 in u: every interior knot is a C0 line, here three convex ridges, all rolled about."""
     xz = np.array([[-10.0, 0.0], [-4.0, 4.0], [4.0, 4.0], [10.0, 0.0], [14.0, -5.0]])
@@ -196,6 +198,7 @@ def test_three_ridges_of_a_degree_one_prism(tmp_path):
     assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
 
 
+@pytest.mark.slow
 def test_noisy_patches_merged_c0_plan_along_their_joints():
     """`vcnc surface --patch-sections 5` merges C0: the joints run along passes along u and bend by up to
     1.5 deg, some concave. Each pass is checked against the patches on both sides of the joints."""
@@ -213,6 +216,7 @@ def test_noisy_patches_merged_c0_plan_along_their_joints():
     assert (d - R).min() >= -TOL and (d - R).max() <= TOL + 0.0002
 
 
+@pytest.mark.slow
 def test_slight_concave_kink_is_joined_through_the_ball_touching_both_sides(tmp_path):
     """A 1.2 deg valley: a ball on one side would cut r (1 - cos 1.2 deg) = 0.66 um into the other, within
     half the tolerance; the offsets' ends give way to the centre touching both planes."""

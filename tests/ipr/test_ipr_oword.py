@@ -243,7 +243,7 @@ M2
 def test_machine_file_subroutine_path_is_relative_to_the_machine_file(tmp_path: Path) -> None:
     from ipo.config import load_config
 
-    default = (Path(__file__).resolve().parents[1] / "programs" / "machine.toml").read_text()
+    default = (Path(__file__).resolve().parents[2] / "programs" / "machine.toml").read_text()
     (tmp_path / "m.toml").write_text(default.replace("subroutine_path = []", 'subroutine_path = ["subs"]'))
     assert load_config(tmp_path / "m.toml").subroutine_path == (str(tmp_path / "subs"),)
 

@@ -238,7 +238,7 @@ def test_nurbs_sent_through_the_ipo_stays_within_the_merge_tolerance_of_the_exac
     # programs/circle_nurbs.nc: a rational quadratic full circle of radius 10 about the origin.
     # The vertices are the IPO's period points on the curve (not BLU-rounded) written with 4
     # decimals, merged within the tolerance less that rounding: the polyline sent stays within it.
-    prog = parse_file(Path(__file__).resolve().parents[1] / "programs" / "circle_nurbs.nc")
+    prog = parse_file(Path(__file__).resolve().parents[3] / "programs" / "circle_nurbs.nc")
     nurbs = next(e for e in prog.entities if isinstance(e, Nurbs))
     lines = list(stream_lines(prog.entities, CFG, ipo_from_start=True, merge_tol_mm=0.001))
     ends = [l.end_mm for l in lines if l.motion and l.source_line == nurbs.line]

@@ -17,7 +17,7 @@ from machine.grbl.program import stream_lines
 from machine.increments import frames as F
 from machine.increments.receiver import IncrementReceiver, SocketEndpoint
 
-DEMO = Path(__file__).resolve().parents[1] / "programs" / "demo.nc"
+DEMO = Path(__file__).resolve().parents[3] / "programs" / "demo.nc"
 
 
 def _expected_lines():

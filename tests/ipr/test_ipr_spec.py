@@ -227,9 +227,11 @@ def test_tool_missing_from_table_is_a_warning_and_zero():
 
 
 @pytest.mark.parametrize("code", ["G41", "G42"])
-def test_cutter_compensation_needs_a_tool_radius(code):
-    d = error(f"G0 X1\n{code} D1 X2\n")
-    assert (d.code, d.line, d.col) == ("E-COMP", 2, 5) and "tool 1" in d.message
+def test_cutter_compensation_of_an_unknown_tool_is_zero(code):
+    prog = ipr.parse_text(f"G0 X1\n{code} D1\nG0 X2 Y3\n")
+    assert prog.motions()[-1].end == (2.0, 3.0, 0.0)
+    (w,) = prog.warnings
+    assert (w.code, w.line, w.col) == ("W-TOOL-UNKNOWN", 2, 5) and "D1" in w.message
 
 
 def test_dwell():

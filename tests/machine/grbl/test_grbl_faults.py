@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from grbl_emulator import Faults, GrblDouble, PtyServer, SocketServer
 from machine.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _run(args, tmp_path):
@@ -138,6 +138,7 @@ def _wait_for(pred, timeout_s=30.0):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.slow
 def test_ctrl_c_and_sigterm_hold_reset_and_print_the_resume_line(tmp_path, sig):
     """The signal holds the feed: no block runs after it; the reset comes once grbl
     reports Hold:0; the resume line is printed and --resume finishes the program with

@@ -23,8 +23,8 @@ from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap, spread_min
 from ipo.contracts import PeriodBatch
 from ipo.feed.sampling import nurbs_table
 from ipo.feed.scurve import MovingAverage
-from tests.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
-from tests.test_nurbs_corners import random_cubic
+from tests.ipo.feed.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
+from tests.ipo.feed.test_nurbs_corners import random_cubic
 
 SCURVE = dataclasses.replace(CFG, accel_mode="scurve")
 # what the per-period chords add to the samples' limit: the stepper and the curvature
@@ -67,17 +67,17 @@ def _random_interval(rng):
 
 @pytest.mark.parametrize("seed", range(12))
 def test_interval_programme_against_grid_search(seed):
-    """_max_start's x_k is feasible, and no point of a fine (x_k, x_k+1) grid that meets the
+    """max_start's x_k is feasible, and no point of a fine (x_k, x_k+1) grid that meets the
     limits directly has a larger x_k (up to the grid step)."""
     rng = np.random.default_rng(seed)
     t, kv, ds = _random_interval(rng)
     a_max = np.array([1000.0, 800.0, 1200.0])
     cap, b_top = rng.uniform(100, 4000), rng.uniform(0, 4000)
     rows = np.empty((12, 3))
-    m = la._interval_rows(t, kv, 0, 2 * ds, a_max, 1.0, rows)
-    best = la._max_start(rows, m, cap, b_top)
+    m = la.interval_rows(t, kv, 0, 2 * ds, a_max, 1.0, rows)
+    best = la.max_start(rows, m, cap, b_top)
     assert best >= 0.0
-    lo, hi = la._end_range(rows, m, best)
+    lo, hi = la.end_range(rows, m, best)
     b = min(hi, b_top)
     assert b >= lo - 1e-6 and _rows_feasible(t, kv, a_max, 2 * ds, best, b, tol=1e-6)
     grid = np.linspace(0.0, cap, 401)

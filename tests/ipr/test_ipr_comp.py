@@ -90,7 +90,7 @@ def test_compensated_contour_is_one_radius_away(name: str) -> None:
 @pytest.mark.parametrize("text, message", [
     ("G0 X0 Y0\nG41 D1\nG1 X1 Y0 F100\n", "entry move"),                       # entry shorter than r
     ("G0 X-10 Y0\nG41 D1\nG1 X0 Y0 F100\nG3 X4 Y0 I2 J0\n", "not smaller"),    # tool bigger than the arc
-    ("G0 X-10 Y0\nG41 D9\nG1 X0 Y0 F100\n", "no radius"),
+    ("G0 X-10 Y0\nG41 D1\nG1 X0 Y0 F100\nG41 D1\n", "already on"),
     ("G18 G41 D1\n", "XY plane"),
     ("G0 X-10 Y0\nG41 D1\nG1 X0 Y0 F100\nG28\n", "G40 first"),
     ("G0 X-10 Y-10\nG41 D1\nG1 X0 Y0 F100\nX20\nG40\nG2 X30 Y0 R5\n", "after G40"),

@@ -12,7 +12,7 @@ from grbl_emulator import DEFAULT_SETTINGS, GrblDouble, PtyServer
 from ipo.config import default_config
 from machine.cli import main
 
-DEMO = Path(__file__).resolve().parents[1] / "programs" / "demo.nc"
+DEMO = Path(__file__).resolve().parents[3] / "programs" / "demo.nc"
 
 
 def _grbl(args, port, stdin=None):

@@ -16,7 +16,7 @@ from ipo.contracts import PeriodBatch
 from ipo.feed.pieces import KIND_ANALYTIC, KIND_BLEND, Motion, build
 from ipo.feed.sampling import ARC_TOL_MM, nurbs_table
 from ipr.entities import Line, PathControl
-from tests.test_feed import FINE
+from tests.ipo.feed.test_feed import FINE
 
 T = FINE.period_s
 A = np.array([a.max_accel_mm_s2 for a in FINE.axes])
@@ -106,13 +106,13 @@ def test_trapezoid_mode_keeps_the_circular_blend(theta_deg):
     assert pc.omega[1] == pytest.approx(1 / r, rel=1e-12)
     assert pc.length[1] == pytest.approx(r * th, rel=1e-12)
     assert pc.length[0] == pytest.approx(10 - r * np.tan(th / 2), rel=1e-12)
-    assert FeedPlanner(FINE)._g2_limits is None
+    assert FeedPlanner(FINE).g2_limits is None
 
 
 def _periods(ents, cfg, force_arc=False):
     planner = FeedPlanner(cfg, start_mm=ents[0].start)
     if force_arc:  # the circular blend of the old S-curve corner, even where it would stop
-        planner._g2_limits, planner._blend_r_min = None, 0.0
+        planner.g2_limits, planner.min_blend_radius_mm = None, 0.0
     return np.concatenate([b.pos_mm for b in planner.run(ents) if isinstance(b, PeriodBatch)])
 
 
@@ -196,7 +196,7 @@ def test_polyline_along_a_curve_keeps_its_chained_arcs():
     quintic's flat end: g2_corners decides twice) may take the quintic. An isolated 10-degree
     corner between 10 mm lines takes it."""
     planner = FeedPlanner(SCURVE)
-    limits = dict(g2_limits=planner._g2_limits, min_blend_radius_mm=planner._blend_r_min)
+    limits = dict(g2_limits=planner.g2_limits, min_blend_radius_mm=planner.min_blend_radius_mm)
     ang = np.radians(np.arange(0, 91))
     pts = np.c_[10 * np.cos(ang), 10 * np.sin(ang), np.zeros(len(ang))]
     p = PathControl(blend_tol_mm=0.01)

@@ -119,6 +119,7 @@ def test_error_on_a_line_stops_reports_and_resume_finishes():
 
 
 @pytest.mark.parametrize("arcs,early_discard", [(False, False), (True, False), (False, True), (True, True)])
+@pytest.mark.slow
 def test_hold_inside_a_block_resumes_from_the_machine_position(arcs, early_discard):
     """A hold stops inside the running block (a line, or an arc): the resumed stream sends
     that line from where the machine stands (an arc with its IJK from there). Blocks take

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 import browser
 from machine.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "programs" / "demo.nc"
 FINISH = ROOT / "programs" / "finish_nurbs.nc"
 FINISH_MACHINE = ROOT / "programs" / "finish_machine.toml"
@@ -122,6 +122,7 @@ def _not_blank(png: Path) -> float:
 
 
 @needs_chromium
+@pytest.mark.slow
 def test_demo_report_in_chromium(tmp_path):
     out = tmp_path / "demo.html"
     assert vcnc("run", DEMO, "--report", out).exit_code == 0
@@ -144,6 +145,7 @@ def test_demo_report_in_chromium(tmp_path):
 
 
 @needs_chromium
+@pytest.mark.slow
 def test_finishing_report_in_chromium_names_the_traced_line(tmp_path):
     out, trace = tmp_path / "finish.html", tmp_path / "finish.npz"
     r = vcnc("run", FINISH, "--machine", FINISH_MACHINE, "--report", out, "--trace", trace)
@@ -170,6 +172,7 @@ def test_finishing_report_in_chromium_names_the_traced_line(tmp_path):
 
 
 @needs_chromium
+@pytest.mark.slow
 def test_compare_report_in_chromium_aligns_both_programs_by_distance(tmp_path):
     g2, nurbs = ROOT / "programs" / "circle_g2.nc", ROOT / "programs" / "circle_nurbs.nc"
     out = tmp_path / "cmp.html"

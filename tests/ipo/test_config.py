@@ -5,7 +5,7 @@ import pytest
 
 from ipo.config import ConfigError, Finishing, default_config, load_config
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 DEFAULT_TOML = (REPO / "programs" / "machine.toml").read_text()
 
 
