@@ -86,7 +86,6 @@ class Tool:
     length_mm: float = 0.0
     ball_radius_mm: float = 0.0  # 0 for a flat end mill
     flutes: int = 2
-    radius_mm: float = 0.0       # cutter radius for G41/G42 (D)
     shape: str = ""  # flat | ball | bull; "" = ball if ball_radius_mm > 0, else flat
     diameter_mm: float = 0.0  # 0 = 2 * ball_radius_mm
     corner_radius_mm: float = 0.0  # bull nose only
@@ -189,7 +188,7 @@ def _tools(table: Any) -> dict[int, Tool]:
             raise ConfigError(f"tools.{key}", "tool numbers must be non-negative integers")
         if not isinstance(t, dict):
             raise ConfigError(f"tools.{key}", "must be a table")
-        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "radius_mm", "shape", "diameter_mm",
+        _no_extra(t, {"length_mm", "ball_radius_mm", "flutes", "shape", "diameter_mm",
                       "corner_radius_mm"}, prefix)
         flutes = t.get("flutes", 2)
         if isinstance(flutes, bool) or not isinstance(flutes, int):
@@ -198,7 +197,6 @@ def _tools(table: Any) -> dict[int, Tool]:
         tools[int(key)] = _tool_shape(Tool(
             _number(t.get("length_mm", 0.0), prefix + "length_mm"),
             _number(t.get("ball_radius_mm", 0.0), prefix + "ball_radius_mm", nonneg=True), flutes,
-            _number(t.get("radius_mm", 0.0), prefix + "radius_mm", nonneg=True),
             _choice(t["shape"], prefix + "shape", TOOL_SHAPES) if "shape" in t else "",
             _number(t.get("diameter_mm", 0.0), prefix + "diameter_mm", nonneg=True),
             _number(t.get("corner_radius_mm", 0.0), prefix + "corner_radius_mm", nonneg=True)), prefix)

@@ -63,7 +63,7 @@ class Setup:
         tools = config.tools.items()
         return cls(work_offsets_mm=dict(config.work_offsets_mm),
                    tool_lengths_mm={n: t.length_mm for n, t in tools},
-                   tool_radii_mm={n: getattr(t, "radius_mm", 0.0) for n, t in tools},
+                   tool_radii_mm={n: getattr(t, "diameter_mm", 0.0) / 2.0 for n, t in tools},
                    g28_mm=tuple(getattr(config, "g28_mm", ZERO3)), g30_mm=tuple(getattr(config, "g30_mm", ZERO3)),
                    user_mcodes=dict(getattr(config, "user_mcodes", {})),
                    dialect=getattr(config, "dialect", "linuxcnc"),

@@ -23,9 +23,9 @@ TOOLS = {1: (0.0, 3.0), 2: (20.0, 2.5), 3: (30.0, 1.5)}   # tool -> (length, rad
 
 def machine_file(tmp_path: Path, dialect: str) -> Path:
     text = (ROOT / "ipo" / "machine.toml").read_text()
-    tools = "".join(f"\n[tools.{t}]\nlength_mm = {length}\nradius_mm = {radius}\n"
+    # tool 1 of the default machine is a 6 mm ball: cutter radius 3 mm
+    tools = "".join(f"\n[tools.{t}]\nlength_mm = {length}\ndiameter_mm = {2 * radius}\n"
                     for t, (length, radius) in TOOLS.items() if t != 1)
-    text = text.replace("[tools.1]\n", f"[tools.1]\nradius_mm = {TOOLS[1][1]}\n")
     path = tmp_path / f"{dialect}.toml"
     path.write_text(f'dialect = "{dialect}"\n' + text + tools)
     return path

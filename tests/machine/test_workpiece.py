@@ -194,3 +194,43 @@ def test_compare_cuts_both_programs_and_differs_by_the_facets(tmp_path):
     # radial sagitta seen vertically on a bowl sloping up to 30 degrees, plus the BLU floor of both
     assert sagitta_um - 1.0 <= diff <= sagitta_um / math.cos(math.pi / 6) + 2.0
     assert png.stat().st_size > 10_000
+
+
+def test_surface_report_flags_the_gouging_line_against_an_iges_reference(tmp_path):
+    """A plane z = -1 + 0.05 x as a tilted bilinear IGES patch; the raster follows it, but one pass dips
+    0.2 mm: the report names that pass's line and the depth, computed here from the geometry."""
+    from click.testing import CliRunner
+
+    from ipo.surface.evaluation import RationalSurface
+    from ipo.surface.iges import write_iges
+    from machine.cli import main
+
+    pts = np.array([[[-1.0, -1.0, -1.05], [-1.0, 7.0, -1.05]], [[9.0, -1.0, -0.55], [9.0, 7.0, -0.55]]])
+    write_iges(tmp_path / "plane.igs", [RationalSurface(1, 1, np.array([0, 0, 1, 1.0]), np.array([0, 0, 1, 1.0]),
+                                                        np.ones((2, 2)), pts)])
+    lines = ["G21 G90 G94 G64 T1 M6 S10000 M3", "G0 X0 Y1 Z1", "G1 Z-1 F3000"]
+    for k in range(9):
+        dip = 0.2 if k == 4 else 0.0
+        x_end = 8.0 if k % 2 == 0 else 0.0
+        lines += [f"G1 X{x_end:g} Y{1 + 0.5 * k:g} Z{-1 + 0.05 * x_end - dip:g}"]  # line 4 + 2k
+        if k < 8:
+            lines += [f"G1 Y{1.5 + 0.5 * k:g}"]
+    prog = tmp_path / "g.nc"
+    prog.write_text("\n".join(lines + ["G0 Z5", "M2", ""]))
+    out = tmp_path / "g.npz"
+    res = CliRunner().invoke(main, ["run", str(prog), "--stock", "0,0,-3,8,6,0", "--grid-um", "50",
+                                    "--surface", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    # a ball whose tip follows a plane of slope 0.05 sinks r (1 - cos a) = 3.7 um into it: below 10 um
+    rep = CliRunner().invoke(main, ["surface-report", str(out), "--reference", str(tmp_path / "plane.igs"),
+                                    "--gouge-tol-um", "10", "--json"])
+    assert rep.exit_code == 0, rep.output
+    figs = json.loads(rep.stdout)
+    gouging = {g["line"] for g in figs["gouges"]}
+    # the dipping pass (line 12) ramps down from X0 to 0.2 mm below at X8, where the step-over (13) and
+    # the next pass (14, ramping back up) continue from that depth: only those lines gouge
+    assert 12 in gouging and gouging <= {12, 13, 14}
+    worst = figs["gouges"][0]
+    sink_um = 3.0 * (1 - math.cos(math.atan(0.05))) * 1e3
+    assert 150.0 < worst["depth_um"] <= 200.0 + sink_um + 1.0 and worst["x_mm"] > 7.0
+    assert figs["deviation_min_um"] == pytest.approx(-worst["depth_um"], abs=1e-6)

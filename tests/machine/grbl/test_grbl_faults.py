@@ -137,9 +137,9 @@ def _wait_for(pred, timeout_s=30.0):
         time.sleep(0.01)
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP])
 @pytest.mark.slow
-def test_ctrl_c_and_sigterm_hold_reset_and_print_the_resume_line(tmp_path, sig):
+def test_ctrl_c_sigterm_and_a_closed_terminal_hold_reset_and_print_the_resume_line(tmp_path, sig):
     """The signal holds the feed: no block runs after it; the reset comes once grbl
     reports Hold:0; the resume line is printed and --resume finishes the program with
     every motion run exactly once."""

@@ -16,7 +16,7 @@ from machine.trace import MemoryTrace
 from machine.workpiece.analytic import raster_program
 from machine.workpiece.build import build_workpiece
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 R_MM, PICK_MM, RPM, FLUTES = 3.0, 0.2, 12500.0, 2
 WINDOW_X_MM = (3.0, 5.0)
 
