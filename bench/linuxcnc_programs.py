@@ -21,7 +21,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+# the repository first: tests/ipr is a folder of tests, not the package
+sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[1] / "tests")]
 from rs274 import RS274, canon_moves  # noqa: E402
 
 import ipr  # noqa: E402

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]   # the repository first: tests/machine is a folder of tests
 
 from grbl_emulator import GrblDouble, PtyServer  # noqa: E402
 from ipr.entities import PLANE_AXES  # noqa: E402
