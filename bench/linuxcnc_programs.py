@@ -23,7 +23,7 @@ from pathlib import Path
 
 # the repository first: tests/ipr is a folder of tests, not the package
 sys.path[:0] = [str(Path(__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[1] / "tests")]
-from rs274 import RS274, canon_moves  # noqa: E402
+from rs274 import RS274, canon_moves, private_home  # noqa: E402
 
 import ipr  # noqa: E402
 from ipr.entities import Arc, GCodeError, Line, Rapid  # noqa: E402
@@ -31,6 +31,10 @@ from ipr.entities import Arc, GCodeError, Line, Rapid  # noqa: E402
 DIRS = (Path("/usr/share/linuxcnc/ncfiles"), Path("/usr/share/doc/linuxcnc/examples"),
         Path(__file__).resolve().parents[2] / "shared" / "corpus" / "linuxcnc")
 RS274_TIMEOUT_S = 60
+# Both interpreters get the same tools: vcnc's default set-up has no tool table (every tool's
+# length and radius 0), while rs274 alone falls back to a built-in table of its own (T1 0.511 in
+# long, T2 0.1 in, ...), so a G43 after T1 M6 would differ by a made-up length, not by semantics.
+ZERO_TOOLS = "".join(f"T{t} P{t} Z0 D0\n" for t in range(1, 100))
 _FLOAT_SLACK = 1e-9
 
 
@@ -45,14 +49,30 @@ def programs(dirs) -> list[Path]:
 def rs274_moves(path: Path):
     """rs274's moves, or None when it rejects the program (or does not finish)."""
     try:
-        done = subprocess.run([RS274, "-g", "-b", path.name], cwd=path.parent, capture_output=True, text=True,
-                              stdin=subprocess.DEVNULL, timeout=RS274_TIMEOUT_S)
+        with private_home() as env:
+            table = Path(env["HOME"]) / "tools.tbl"
+            table.write_text(ZERO_TOOLS)
+            done = subprocess.run([RS274, "-g", "-b", "-t", str(table), path.name], cwd=path.parent,
+                                  capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=RS274_TIMEOUT_S,
+                                  env=env)
     except subprocess.TimeoutExpired:
         return None
     # rs274 -g prints an error and still exits 0 on some failures: its message on stderr says so
     if done.returncode != 0 or "error" in done.stderr.lower():
         return None
     return canon_moves(done.stdout)
+
+
+def _moving(items: list, end, straight) -> list:
+    """The moves that go somewhere: a straight move to where the previous one ended is no motion
+    (rs274 prints one for a `G0` without axis words, vcnc emits none), while an arc back to its
+    start is a full circle."""
+    kept, at = [], (0.0, 0.0, 0.0)
+    for item in items:
+        if not (straight(item) and all(abs(a - b) <= _FLOAT_SLACK for a, b in zip(end(item), at))):
+            kept.append(item)
+        at = end(item)
+    return kept
 
 
 def compare(path: Path, moves) -> str:
@@ -64,7 +84,9 @@ def compare(path: Path, moves) -> str:
         return f"{d.code}: {d.message[:70]}"
     except Exception as err:  # a traceback is the worst outcome: count it, name it
         return f"TRACEBACK {type(err).__name__}: {str(err)[:60]}"
-    motions = [e for e in entities if type(e) in (Rapid, Line, Arc)]
+    motions = _moving([e for e in entities if type(e) in (Rapid, Line, Arc)], lambda e: e.end,
+                      lambda e: type(e) is not Arc)
+    moves = _moving(moves, lambda m: m.end_mm, lambda m: m.kind != "arc")
     if len(motions) != len(moves):
         return f"differ: {len(motions)} moves, rs274 {len(moves)}"
     for i, (m, e) in enumerate(zip(moves, motions)):

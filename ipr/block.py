@@ -54,6 +54,7 @@ ABSENT_AXES = frozenset("ABCUVW")
 # non-modal codes that take the axis words (no motion may share the block)
 AXIS_NONMODAL = frozenset((920, 520, 100, 280, 300))
 AXES = "XYZ"
+POLAR = ("@", "^")   # ipr.polar
 _LINEAR_LETTERS = frozenset("XYZFN")
 _ARC_LETTERS = frozenset("XYZIJKRFN")
 NURBS_MOTIONS = (52, 62)
@@ -69,7 +70,7 @@ class BlockSpec:
     """
 
     __slots__ = ("g", "m", "index", "where", "axes", "usage", "motion", "f_index", "axis_idx", "linear",
-                 "plain_arc")
+                 "plain_arc", "polar")
 
     def __init__(self, g, m, index, where, axes):
         self.g = g
@@ -81,6 +82,8 @@ class BlockSpec:
         self.motion = g.get("motion")
         self.f_index = index.get("F")
         self.axis_idx = tuple((k, index[a]) for k, a in enumerate(AXES) if a in index)
+        # the word index of the first polar word (ipr.polar), None without one
+        self.polar = min((index[w] for w in POLAR if w in index), default=None)
         # a plain G0/G1 block: the interpreter's short path
         self.linear = (g.keys() <= {"motion"} and self.motion in (None, 0, 10) and not m
                        and index.keys() <= _LINEAR_LETTERS)
@@ -96,9 +99,9 @@ class BlockSpec:
         code = self.g.get("motion")
         if code is not None:
             if code in (0, 10):
-                return bool(self.axes)   # a bare G0/G1 only sets the mode
+                return bool(self.axes) or self.polar is not None   # a bare G0/G1 only sets the mode
             return code != 800
-        if self.axes:
+        if self.axes or self.polar is not None:
             return True
         if motion in NURBS_MOTIONS:
             return any(k in self.index for k in ("K", "R", "P"))
@@ -116,10 +119,13 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
     moving = spec.moves(motion)
     nonmodal = g.get("nonmodal")
     takes_axes = nonmodal in AXIS_NONMODAL or g.get("tool_length") == 431
-    if spec.axes and not takes_axes and (motion is None or motion == 800 or motion == 53):
-        letter = spec.axes[0]
+    if spec.polar is not None and (takes_axes or nonmodal == 530):
+        what = "G53" if nonmodal == 530 else "a code that takes axis words"
+        return BlockError("E-POLAR", f"polar coordinates (@, ^) only in motion, not with {what}", spec.polar)
+    if (spec.axes or spec.polar is not None) and not takes_axes and motion in (None, 800, 53):
+        raise_at = spec.index[spec.axes[0]] if spec.axes else spec.polar
+        letter = spec.axes[0] if spec.axes else next(w for w in POLAR if spec.index.get(w) == spec.polar)
         what = "G80 cancels motion" if motion == 800 else "no motion mode is active"
-        raise_at = spec.index[letter]
         return BlockError("E-NO-MOTION-MODE", f"axis word {letter} but {what}", raise_at)
     m = motion if moving else None
     m98 = spec.m.get("subprogram") == 980
@@ -194,6 +200,10 @@ def analyse(signature: tuple, dialect: str = "linuxcnc") -> BlockSpec | BlockErr
                 return BlockError("E-WORD-REPEATED", f"{letter} word appears twice in the block", i)
             index[letter] = i
     axes = tuple(a for a in AXES if a in index)
+    if any(w in index for w in POLAR) and ("X" in index or "Y" in index):
+        letter = "X" if "X" in index else "Y"
+        return BlockError("E-POLAR", f"polar coordinates (@, ^) and a word {letter} in one block",
+                          index[letter])
     nonmodal = g.get("nonmodal")
     if axes and nonmodal in AXIS_NONMODAL and g.get("motion", 800) != 800:
         return BlockError("E-AXIS-CONFLICT", f"{code_name('G', nonmodal / 10)} and "

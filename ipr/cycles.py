@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+from ipr import polar
 from ipr.dialect import dwell_seconds
 from ipr.entities import EXACT_STOP, PLANE_AXES, Dwell, Line, Rapid, Spindle, Stop
 from ipr.errors import BlockError, code_name
@@ -134,6 +135,8 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
     current_cc = here[n]
     old_cc = mem.initial if (st.cycle is not None and motion_before in _ALL) else current_cc
     words = {k: vals[i] for k, i in spec.axis_idx}
+    if spec.polar is not None and st.absolute:
+        words[a], words[b] = polar.end_xy(st, spec, vals, here, True)
     if st.absolute:
         aa_inc = bb_inc = 0.0
         r, cc = r_word, cc_word
@@ -155,7 +158,11 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
     clear = r if st.retract_r else old_cc
     # 5. CYCLE_MACRO: L repeats, each positioned over its hole, then the cycle's own moves
     for k in range(int(repeats)):
-        aa, bb = aa + aa_inc, bb + bb_inc
+        if spec.polar is not None and not st.absolute:
+            # rs274 turns each repeat about the origin again (interp_cycles.cc)
+            aa, bb = polar.end_xy(st, spec, vals, (aa, bb), False)
+        else:
+            aa, bb = aa + aa_inc, bb + bb_inc
         if k == 0 and current_cc > r:
             em.traverse(aa, bb, current_cc)
             em.traverse(aa, bb, r)

@@ -58,6 +58,8 @@ Warnings and notices (severity "warning"/"notice", never stop a program):
 
 | code                 | meaning                                                                  |
 |----------------------|--------------------------------------------------------------------------|
+| E-POLAR              | @/^ (polar coordinates) with X or Y, outside G17, with G53 or a code that |
+|                      | takes axis words, with NURBS/splines, or at the origin where undefined   |
 | W-TOOL-UNKNOWN       | G43 H or M6 T names a tool missing from the tool table: zero offset      |
 | N-Q-IGNORED          | the Q word of LinuxCNC's G6.2 (its output method) is ignored             |
 | N-RECORDED           | a code the virtual machine records but does not act on (M19 orient,      |
@@ -77,6 +79,7 @@ CODES = (
     "E-NURBS-KNOT-ORDER", "E-NURBS-KNOT-CLAMP", "E-NURBS-KNOT-MULT", "E-NURBS-POINTS",
     "E-NURBS-BLOCK", "E-NURBS-INCOMPLETE",
     "E-AXIS-ABSENT", "E-CYCLE", "E-SPINDLE", "E-OFFSET", "E-FEED-MODE", "E-MCODE-USER", "E-DIALECT", "E-COMP",
+    "E-POLAR",
     "W-TOOL-UNKNOWN", "N-Q-IGNORED", "N-RECORDED", "N-KNOCK-ON",
 )
 

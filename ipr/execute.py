@@ -180,6 +180,9 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
             st.comp = None
         else:
             return _comp_motion(st, spec, vals, out, notices, line, motion, end, where, dialect)
+    if spec.polar is not None and motion in (50, 51, 52, 62):
+        raise BlockError("E-POLAR", "polar coordinates (@, ^) only with G0, G1, G2, G3 and the canned cycles",
+                         spec.polar)
     if motion in (52, 62):
         if st.rotation_deg:
             raise BlockError("E-OFFSET", "NURBS blocks in a rotated coordinate system (G10 L2 R) are not "
@@ -255,7 +258,7 @@ def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, di
         turns = int(p) - 1
     ccw = st.motion == 30
     if "R" in idx:
-        if AXES[a] not in idx and AXES[b] not in idx:
+        if AXES[a] not in idx and AXES[b] not in idx and spec.polar is None:
             raise BlockError("E-ARC-FORMAT", f"radius-format arc needs {AXES[a]} or {AXES[b]}", idx["R"])
         return make_arc(line, st.pos, end, plane, ccw, feed_mm_s, st.path,
                         radius_mm=vals[idx["R"]] * st.unit, turns=turns, word=idx["R"], unit_mm=st.unit)

@@ -38,7 +38,7 @@ class KnockOn:
                 self.doubt.setdefault("motion" if value in MOTION_G else "feed", line)
             elif letter == "F":
                 self.doubt.setdefault("feed", line)
-            elif letter in "XYZ":
+            elif letter in "XYZ@^":
                 self.doubt.setdefault("position", line)
 
     def follows(self, code: str) -> bool:

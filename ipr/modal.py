@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ipr import polar
 from ipr.entities import CONTINUOUS, PathControl
 from ipr.parameters import Parameters
 
@@ -196,9 +197,15 @@ def target(st, spec, vals, base, machine: bool = False):
     """End point (machine mm) of a block's axis words read from `base`: program units to mm,
     plus the program -> machine offset in G90, relative to `base` in G91, as-is for G53.
     `st` is a ModalState or Staged view, `spec` an ipr.block.BlockSpec, `vals` the values.
-    A rotated coordinate system (G10 L2 R) turns the XY words (ipr.offsets)."""
+    A rotated coordinate system (G10 L2 R) turns the XY words (ipr.offsets); @ and ^ give XY (ipr.polar)."""
     end = list(base)
     unit = st.unit
+    if spec.polar is not None:
+        p = [c / unit for c in to_program(st, base)]
+        p[0], p[1] = polar.end_xy(st, spec, vals, p, st.absolute)
+        for k, i in spec.axis_idx:
+            p[k] = vals[i] if st.absolute else p[k] + vals[i]
+        return to_machine(st, [c * unit for c in p])
     if machine:
         for k, i in spec.axis_idx:
             end[k] = vals[i] * unit

@@ -15,6 +15,8 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
@@ -51,18 +53,24 @@ def require_rs274() -> str:
     return RS274
 
 
+@contextmanager
+def private_home() -> Iterator[dict[str, str]]:
+    """The environment for one rs274 run. rs274 keeps its tool table in $HOME/.tool.mmap
+    (LinuxCNC's tooldata_mmap.cc): runs at the same moment would share it (crashes, another
+    run's tools) and a run would start from the tools the previous one left, so each run gets
+    a HOME of its own."""
+    with tempfile.TemporaryDirectory() as home:
+        yield {**os.environ, "HOME": home}
+
+
 def run_rs274(path: Path, var_file: Path | None = None, tool_table: Path | None = None) -> str:
     """rs274's canon output for `path`; raises with rs274's own message if it rejects the program.
     rs274 alone reads a tool table's lengths and diameters in inches."""
     # -b turns block delete on, as it is by default in vcnc (ipr.Setup.block_delete)
     cmd = ([require_rs274(), "-g", "-b"] + (["-v", str(var_file)] if var_file else [])
            + (["-t", str(tool_table)] if tool_table else []) + [str(path)])
-    # rs274 keeps its tool table in $HOME/.tool.mmap (LinuxCNC's tooldata_mmap.cc): runs of other
-    # processes at the same moment would share it (crashes, another run's tools), so each run
-    # gets a HOME of its own
-    with tempfile.TemporaryDirectory() as home:
-        done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120,
-                              env={**os.environ, "HOME": home})
+    with private_home() as env:
+        done = subprocess.run(cmd, capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=120, env=env)
     if done.returncode != 0:
         raise RuntimeError(f"rs274 rejected {path}: {done.stderr.strip()}")
     return done.stdout

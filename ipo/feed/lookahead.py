@@ -207,16 +207,19 @@ def refine(s, t, kv, x, cap, plateau, a_max, ascale):
     src = np.empty(3 * n, np.int64)
     m = 0
     for k in range(n - 1):
+        # 1. the sample itself
         so[m] = s[k]
         xo[m] = x[k]
         src[m] = k
         m += 1
+        # 2. a straight interval: no curvature and one tangent at both ends
         ds = s[k + 1] - s[k]
         straight = ds > 0.0
         for i in range(3):
             if kv[k, i] != 0.0 or kv[k + 1, i] != 0.0 or t[k, i] != t[k + 1, i]:
                 straight = False
         if not straight:
+            # 3. a curved interval gets corners only between two stops
             if ds > 0.0 and x[k] <= 0.0 and x[k + 1] <= 0.0:
                 # a curved stretch between two stops: accelerate, then brake, within the
                 # curvature cap of its ends
@@ -239,6 +242,8 @@ def refine(s, t, kv, x, cap, plateau, a_max, ascale):
                     src[m] = k
                     m += 1
             continue
+        # 4. a straight interval: reach the cap (s1) and brake from it (s2), or turn from
+        # accelerating to braking below it (sp)
         lo, hi = _bounds(t, kv, k, 0.0, a_max, ascale[k])
         c0 = cap[k] if cap[k] > 0.0 else plateau[k]
         c1 = cap[k + 1] if cap[k + 1] > 0.0 else plateau[k]
@@ -266,6 +271,7 @@ def refine(s, t, kv, x, cap, plateau, a_max, ascale):
                 xo[m] = xp
                 src[m] = k
                 m += 1
+    # 5. the last sample
     so[m] = s[n - 1]
     xo[m] = x[n - 1]
     src[m] = n - 2

@@ -184,6 +184,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     """
     nurbs = DriverChanges(drivers, next_index, make_driver)
     add_blend = nurbs.add
+    # 1. the moves as arrays: ends, feed, tolerance, length, tangents at both ends
     n = len(motions)
     ents = [m[0] for m in motions]
     tol_of: dict = {}
@@ -218,7 +219,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             tab = nurbs[motions[i][2]].table
             length[i] = tab.length
             t_in[i], t_out[i] = tab.t[0], tab.t[-1]
-    # corner blends: junction j joins moves j and j+1
+    # 2. size the corner blends: junction j joins moves j and j+1
     trim_in, trim_out = np.zeros(n), np.zeros(n)
     trim_in[0] = lead_trim_mm
     both = line_like[:-1] & line_like[1:] & (length[:-1] > 0) & (length[1:] > 0) & (tol[:-1] > 0)
@@ -262,6 +263,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             d[j], nurbs_blends[j] = found
     trim_out[:-1] = d
     trim_in[1:] += d
+    # 3. lay out the pieces: each move's own piece, then the blend at its end
     emit = n if final else n - 1
     pc = _empty(2 * emit)  # even slots: each move's own piece; odd slots: the blend at its end
     own, bl = np.arange(0, 2 * emit, 2), np.arange(1, 2 * emit, 2)
@@ -285,6 +287,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     pc.radius[k] = radius[jb]
     pc.omega[k] = 1.0 / radius[jb]
     pc.length[k] = radius[jb] * theta[jb]
+    # 4. the Bezier blends (at arcs, at NURBS, curvature-continuous) with their drivers
     for j in np.nonzero(curve[:emit])[0]:
         a_pt, b_pt = _point(arcs, start, unit, is_arc, j, length[j] - d[j]), _point(arcs, start, unit, is_arc,
                                                                                     j + 1, d[j])
@@ -296,6 +299,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for j in np.nonzero(g2[:emit])[0]:
         _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
+    # 5. arcs and NURBS without what their blends took
     for i in np.nonzero(~ll)[0]:
         e, slot = ents[i], 2 * i
         if isinstance(e, Arc):

@@ -35,6 +35,7 @@ CASES = [
     ("G17 G18", "E-MODAL-GROUP", 1, 5),
     ("M3 M5 S100", "E-MODAL-GROUP", 1, 4),
     ("G0 X0\nG1 G92 X0", "E-AXIS-CONFLICT", 2, 1),
+    ("G0 X10\nG1 X1 @3 F10", "E-POLAR", 2, 4),
     ("G0 X1 I2", "E-WORD-UNUSED", 1, 7),
     ("G0 X1 H2", "E-WORD-UNUSED", 1, 7),
     ("G0 X1\nG1 X2 F10 L3", "E-WORD-UNUSED", 2, 11),
