@@ -7,7 +7,6 @@ import math
 from pathlib import Path
 
 import click
-import numpy as np
 
 from machine.commands import INPUT_FILE, OutputPath
 
@@ -78,6 +77,8 @@ def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_eva
     if pulse_dev is not None:
         summary["pulse_dev_blu"] = pulse_dev
     if out is not None:
+        import numpy as np  # here, not at the top: `vcnc interp --help` does not load numpy
+
         if Path(out).suffix.lower() == ".npz":
             np.savez(out, pos_mm=result.pos_mm, u=result.u)
         else:

@@ -1,0 +1,75 @@
+"""`vcnc warmup`: compile the numba kernels of a run once, right after an install.
+
+Why an explicit step: numba compiles a kernel on its first call and caches the machine code
+next to the sources (`cache=True`), keyed on the source file's time stamp, the numba version
+and the CPU. The cache is therefore made on the machine that runs vcnc, once per install (and
+again after a kernel changes); it cannot ship in the repository. Compiling the kernels a run
+uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the look-ahead's `backward` and the
+steppers' `_walk`, which inline their callees). Done by `vcnc warmup` in the install command,
+a user's first `vcnc run` loads cached kernels instead of compiling them (measured figures in
+bench/run.py and docs/throughput.md).
+
+The warm-up runs a short built-in program through the same check → plan → interpolate → drive
+path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method),
+with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses.
+"""
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import click
+
+from machine.commands import load_machine
+
+# The demo's shapes: a rapid, feeds, both arc directions and a rational quadratic NURBS (quarter circle).
+WARMUP_PROGRAM = """\
+G21 G17 G90 G94 G64 P0.01
+G0 X0 Y0 Z5
+G1 Z0 F600
+G1 X20 Y0 F3000
+G3 X30 Y10 I0 J10
+G2 X40 Y20 I10 J0
+G1 X30 Y20
+G06.2 P3 K0 X30 Y20 Z0 R1 F3000
+K0 X30 Y30 R0.70710678
+K0 X20 Y30 R1
+K1
+K1
+K1
+G1 X0 Y30
+G0 Z5
+M2
+"""
+
+
+@click.command("warmup")
+@click.option("--machine", "machine_file", type=click.Path(exists=True, dir_okay=False),
+              help="Machine TOML (default: built in).")
+def command(machine_file):
+    """Compile the numba kernels of a run now (once per install), so the first run does not wait."""
+    from numba.core import event
+
+    from ipo.config import METHODS
+    from machine.controller import Controller
+    from machine.report.digest import DigestSink
+
+    config = load_machine(machine_file)
+    compiled = []
+    listener = type("L", (event.Listener,), {"on_start": lambda _, ev: None,
+                                             "on_end": lambda _, ev: compiled.append(ev)})()
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as scratch, event.install_listener("numba:compile", listener):
+        path = Path(scratch) / "warmup.nc"
+        path.write_text(WARMUP_PROGRAM)
+        for method in METHODS:
+            controller = Controller(config, method=method)
+            digest = DigestSink(controller.limits.meta(), servo=config.servo.model != "none")
+            controller.sinks = [digest]  # what `vcnc run --plot/--report` adds
+            result = controller.run(controller.check(path))
+            digest.finish()
+            if result.state != "completed":
+                raise click.ClickException(f"warm-up run {method}: {result.state}: {result.fault}")
+    click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
+               if compiled else "vcnc warmup: every kernel was already compiled (cached)")

@@ -1,0 +1,56 @@
+"""Start-up and first-run throughput contracts of the CLI (issue 22).
+
+`vcnc --help` lists the commands from machine.cli.SHORT_HELP without importing their modules;
+these tests check that listing against each command's own docstring, that help loads none of
+the heavy libraries, and that `vcnc warmup` compiles every kernel a `vcnc run --plot` of the
+demo uses, so that run compiles nothing.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import click
+import pytest
+
+from machine.cli import COMMANDS, SHORT_HELP
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("numpy", "numba", "matplotlib", "lark", "rich")
+
+
+def _modules_loaded_by(args: list[str]) -> list[str]:
+    code = ("import sys; from click.testing import CliRunner; from machine.cli import main; "
+            f"r = CliRunner().invoke(main, {args!r}); assert r.exit_code == 0, r.output; "
+            f"print([m for m in {HEAVY!r} if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    return json.loads(out.stdout.replace("'", '"'))
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_short_help_is_the_commands_own(name):
+    command = importlib.import_module(COMMANDS[name]).command
+    assert name in SHORT_HELP, f"machine.cli.SHORT_HELP has no line for {name}"
+    for limit in (45, 60, 1000):
+        assert click.Command(name, help=SHORT_HELP[name]).get_short_help_str(limit) == command.get_short_help_str(limit)
+
+
+def test_help_loads_no_heavy_library():
+    assert _modules_loaded_by(["--help"]) == []
+    for name in ("run", "parse", "plot", "stream", "warmup"):
+        assert _modules_loaded_by([name, "--help"]) == [], name
+
+
+def test_warmup_leaves_nothing_to_compile_for_the_demo(tmp_path):
+    cli = [sys.executable, "-m", "machine.cli"]
+    warm = subprocess.run(cli + ["warmup"], capture_output=True, text=True, cwd=ROOT)
+    assert warm.returncode == 0, warm.stderr
+    assert warm.stdout.startswith("vcnc warmup: ")
+    run = subprocess.run(cli + ["run", "programs/demo.nc", "--json", "--plot", str(tmp_path / "run.png")],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout)["state"] == "completed"
+    assert "numba compiled" not in run.stderr
