@@ -10,9 +10,8 @@ from machine.workpiece.stock import Stock, StockError
 from machine.workpiece.tool import ToolError
 
 
-def check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth=False) -> bool:
-    """Before anything runs (the output paths are checked by their option type): the workpiece options;
-    True when the run cuts a workpiece."""
+def check_stock_and_grid(stock_text: str | None, grid_um: float | None) -> None:
+    """--stock and --grid-um as click errors, before anything runs."""
     if stock_text is not None:
         try:
             Stock.parse(stock_text)
@@ -20,6 +19,12 @@ def check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teet
             raise click.BadParameter(str(err), param_hint="--stock") from None
     if grid_um is not None and not grid_um > 0:
         raise click.BadParameter(f"must be > 0, got {grid_um}", param_hint="--grid-um")
+
+
+def check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth=False) -> bool:
+    """Before anything runs (the output paths are checked by their option type): the workpiece options;
+    True when the run cuts a workpiece."""
+    check_stock_and_grid(stock_text, grid_um)
     wanted = bool(surface_files) or stock_text is not None
     if not wanted and (tool is not None or grid_um is not None or teeth):
         raise click.UsageError("--tool, --grid-um and --teeth set up the workpiece: add --surface (and --stock)")

@@ -8,7 +8,7 @@ import click
 import numpy as np
 
 from machine.workpiece.figures import format_rows, surface_figures
-from machine.workpiece.stock import Stock, StockError
+from machine.workpiece.cli_run import check_stock_and_grid
 from machine.workpiece.zmap import Surface
 
 
@@ -18,12 +18,7 @@ def cut_options(stock_text, tool, grid_um, surface_plot) -> dict | None:
         if tool is not None or grid_um is not None or surface_plot:
             raise click.UsageError("--tool, --grid-um and --surface-plot cut a workpiece: add --stock")
         return None
-    try:
-        Stock.parse(stock_text)
-    except StockError as err:
-        raise click.BadParameter(str(err), param_hint="--stock") from None
-    if grid_um is not None and not grid_um > 0:
-        raise click.BadParameter(f"must be > 0, got {grid_um}", param_hint="--grid-um")
+    check_stock_and_grid(stock_text, grid_um)
     return {"stock_text": stock_text, "tool": tool, "grid_um": grid_um}
 
 
