@@ -38,6 +38,7 @@ from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, Profile, centripetal_binds, period_reasons
 from ipo.feed.intake import CornerRules, Intake
+from ipo.feed.merge import merge_collinear
 from ipo.roughness import cusp_height_mm
 from ipo.feed.window import Window
 from ipo.feed.scurve import MovingAverage
@@ -118,7 +119,7 @@ class FeedPlanner:
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
         """Period batches and events in order; the machine ends standing still."""
         intake, win = self._intake, self._win
-        for e in entities:
+        for e in merge_collinear(entities):  # G64 Q
             tp = type(e)
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
