@@ -16,6 +16,8 @@ Pipeline (`planner.FeedPlanner`, per look-ahead window):
   one object with one owner, the planner; `driver_changes`: what one build made.
 - `emission`: planned arc lengths -> quantised positions -> `PeriodBatch`; reads the window.
 - `planner`: `plan_periods`, the stage's entry point.
+- `grbl_twin/`: a grbl 1.1 board's planner and stepper behind the same interface;
+  `profiles`: the machine file's `planner` -> its plan_periods (ipo.config.PLANNERS).
 
-May import: ipo.config, ipo.contracts, ipo.errors, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

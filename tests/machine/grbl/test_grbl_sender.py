@@ -88,12 +88,11 @@ def test_job_time_of_one_line_is_the_trapezoid_time():
 
     from ipr.entities import Line
     from machine.grbl.estimate import JobEstimate
-    from machine.grbl.program import stream_lines
+    from machine.grbl.program import stream_groups
 
     cfg = dataclasses.replace(default_config(), accel_mode="trapezoid")
     ents = [Line(1, (0.0, 0.0, 0.0), (100.0, 0.0, 0.0), 10.0)]
-    lines = list(stream_lines(ents, cfg))
-    est = JobEstimate.plan(ents, lines, cfg, (0.0, 0.0, 0.0))
+    est = JobEstimate.plan(stream_groups(ents, cfg), cfg, (0.0, 0.0, 0.0))
     a = min(ax.max_accel_mm_s2 for ax in cfg.axes)
     assert est.total_s == pytest.approx(100.0 / 10.0 + 10.0 / a, abs=3 * cfg.period_s)
     assert est.remaining_s(1) == est.total_s and est.remaining_s(2) == 0.0
