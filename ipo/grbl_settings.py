@@ -19,6 +19,7 @@ from ipo.config_values import ConfigError, no_extra, number
 # grbl 1.1's defaults for what the machine file does not say (defaults.h, DEFAULTS_GENERIC)
 DEFAULT_JUNCTION_DEVIATION_MM = 0.010  # $11
 DEFAULT_ARC_TOLERANCE_MM = 0.002  # $12
+DEFAULT_IDLE_LOCK_MS = 25  # $1 (255: the steppers stay enabled, no wait)
 DEFAULT_GRBL_BAUD = 115200
 NEEDED = (11, 12, 100, 101, 102, 110, 111, 112, 120, 121, 122)
 _LINE = re.compile(r"^\$(\d+)=(-?\d+(?:\.\d*)?)(?:\s+\(.*\))?$")
@@ -36,19 +37,26 @@ class GrblSettings:
     junction_deviation_mm: float  # $11
     arc_tolerance_mm: float  # $12
     laser_mode: bool = False  # $32: spindle changes during motion do not stop the planner
+    idle_lock_ms: int = DEFAULT_IDLE_LOCK_MS  # $1: the stepper interrupt waits this long when motion stops
     source: str = "the machine file's axes"
 
     @property
     def max_rate_mm_s(self) -> tuple[float, float, float]:
         return tuple(v / 60.0 for v in self.max_rate_mm_min)
 
+    @property
+    def idle_lock_s(self) -> float:
+        """st_go_idle's wait inside the stepper interrupt when motion stops (none with $1=255)."""
+        return 0.0 if self.idle_lock_ms == 255 else self.idle_lock_ms / 1000.0
+
     def dump(self) -> str:
         """The settings as `$$` prints them (the ones the twin reads)."""
-        vals = {11: self.junction_deviation_mm, 12: self.arc_tolerance_mm, 32: float(self.laser_mode)}
+        vals = {1: float(self.idle_lock_ms), 11: self.junction_deviation_mm, 12: self.arc_tolerance_mm,
+                32: float(self.laser_mode)}
         for i in range(3):
             vals[100 + i], vals[110 + i], vals[120 + i] = (self.steps_per_mm[i], self.max_rate_mm_min[i],
                                                            self.accel_mm_s2[i])
-        return "".join(f"${k}={v:.3f}\n" if k != 32 else f"${k}={int(v)}\n" for k, v in sorted(vals.items()))
+        return "".join(f"${k}={int(v)}\n" if k in (1, 32) else f"${k}={v:.3f}\n" for k, v in sorted(vals.items()))
 
 
 def parse_dump(text: str, source: str) -> GrblSettings:
@@ -75,7 +83,7 @@ def from_values(values: dict[int, float], source: str) -> GrblSettings:
             raise GrblSettingsError(f"{source}: ${key}={values[key]:g} must be > 0")
     return GrblSettings(tuple(values[k] for k in (100, 101, 102)), tuple(values[k] for k in (110, 111, 112)),
                         tuple(values[k] for k in (120, 121, 122)), values[11], values[12],
-                        bool(values.get(32, 0.0)), source)
+                        bool(values.get(32, 0.0)), int(values.get(1, DEFAULT_IDLE_LOCK_MS)), source)
 
 
 def read_dump(path: str | Path) -> GrblSettings:

@@ -51,6 +51,7 @@ class Board:
         self.byte_s = 0.0 if baud is None else 10.0 / baud
         self.reply_s = OK_BYTES * self.byte_s + reply_latency_s
         self.position_mm = [float(c) for c in start_mm]  # the parser's position (gc_state.position)
+        self.idle_lock_s = settings.idle_lock_s
 
     def run(self, lines: Iterable[WireLine]) -> Iterator[tuple]:
         self._link = _Link(iter(lines), self.byte_s)
@@ -59,11 +60,12 @@ class Board:
         self._pending: deque = deque()  # chords of the line in hand not yet planned
         self._line: WireLine | None = None  # the line in hand
         self._wait_until = None  # the end of a dwell in hand
+        self._isr_busy_until = 0.0  # st_go_idle's $1 wait: the main loop stands still until then
         t = 0.0
         while True:
             # 1. at time t: the main loop, then the stepper's preparation (which may free a
             # planner block for a motion waiting in mc_line: then the main loop again)
-            while True:
+            while t >= self._isr_busy_until:
                 yield from self._main_loop(t)
                 self._prepare(t)
                 if not (self._pending and not self.planner.full()):
@@ -72,6 +74,8 @@ class Board:
             t_seg = None if self._seg_end is None else self._seg_end / F_CPU_HZ
             t_line = self._link.next_arrival() if self._line is None else None
             cand = [c for c in (t_seg, self._wait_until, t_line) if c is not None]
+            if self._isr_busy_until > t:  # the stepper stands (that is why it waits): nothing before
+                cand = [self._isr_busy_until]
             if not cand:
                 if self._line is None and self._link.done():
                     return
@@ -81,6 +85,8 @@ class Board:
                 seg = self._segq.popleft()
                 yield ("segment", (self._seg_end - seg.n_tick) / F_CPU_HZ, seg, t_seg)
                 self._seg_end = self._seg_end + self._segq[0].n_tick if self._segq else None
+                if self._seg_end is None:  # the interrupt finds no segment: st_go_idle waits $1 ms in it
+                    self._isr_busy_until = t + self.idle_lock_s
 
     def _main_loop(self, t: float) -> Iterator[tuple]:
         """grbl's main loop at time t, until it must wait (for a block, the stop, a dwell or a line)."""
