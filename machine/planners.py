@@ -26,18 +26,24 @@ def describe(config: MachineConfig) -> str:
 
 def planner_for(config: MachineConfig, program, start_mm) -> Callable:
     """plan_periods for this program on the configured planner (the grbl twin: with the lines
-    the grbl link would send it, written in the G54 frame, as the program's own numbers)."""
+    the grbl link would send it)."""
     if config.planner != "grbl":
         return plan_with_lines(config, ())
+    return plan_with_lines(config, grbl_groups(program.entities, config, start_mm))
+
+
+def grbl_groups(entities, config: MachineConfig, start_mm=(0.0, 0.0, 0.0)):
+    """stream_groups of the entities as `vcnc stream` makes them for a board standing at start_mm
+    after a reset: written in the G54 frame (the program's own numbers), the IPO planning from
+    the start when there is a NURBS (as build_job does)."""
     from ipr.entities import Nurbs
     from machine.grbl.program import stream_groups
     from machine.grbl.words import Format
 
+    entities = list(entities)
     frame = config.work_offsets_mm.get("G54", (0.0, 0.0, 0.0))
-    has_nurbs = any(isinstance(e, Nurbs) for e in program.entities)
-    return plan_with_lines(config, stream_groups(program.entities, config, start_mm=tuple(start_mm),
-                                                 fmt_=Format(tuple(frame), config.blu_mm / 10.0),
-                                                 ipo_from_start=has_nurbs))
+    return stream_groups(entities, config, start_mm=tuple(start_mm), fmt_=Format(tuple(frame), config.blu_mm / 10.0),
+                         ipo_from_start=any(isinstance(e, Nurbs) for e in entities))
 
 
 def plan_with_lines(config: MachineConfig, groups) -> Callable:

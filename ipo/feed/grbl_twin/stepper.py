@@ -35,6 +35,8 @@ class Segment:
     from_steps: tuple[float, float, float]
     to_steps: tuple[float, float, float]
     n_tick: int
+    isr_ticks: int  # ticks between two runs of the step interrupt in it
+    amass_level: int  # the interrupt runs 2**level times per step of the block's longest axis
     ramp: int  # the ramp it ends in
     line: int
     axis_limited: bool  # a feed move whose F the axes' max rates cut (cruising at the axis limit)
@@ -181,7 +183,7 @@ class Prep:
         f0, f1 = done / b.step_event_count, (done + n_step) / b.step_event_count
         seg = Segment(tuple(s + f0 * (e - s) for s, e in zip(b.start_steps, b.target_steps)),
                       tuple(s + f1 * (e - s) for s, e in zip(b.start_steps, b.target_steps)),
-                      (n_step << level) * per_step, self.ramp, b.line,
+                      (n_step << level) * per_step, per_step, level, self.ramp, b.line,
                       not b.rapid and b.programmed_rate * self.pl.override > b.rapid_rate)
         # 3. what is left of the block
         b.mm = mm_remaining

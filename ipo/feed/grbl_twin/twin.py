@@ -16,7 +16,7 @@ import numpy as np
 from ipo.config import MachineConfig
 from ipo.contracts import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_DWELL, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.feed.grbl_twin.board import Board
-from ipo.feed.grbl_twin.stepper import RAMP_CRUISE, Segment
+from ipo.feed.grbl_twin.stepper import F_CPU_HZ, RAMP_CRUISE, Segment
 from ipo.feed.grbl_twin.wire import WireLine, from_entities
 from ipo.grbl_settings import GrblSettings, from_machine
 from ipo.interp.reference_word import quantise
@@ -129,11 +129,17 @@ def _reason(seg: Segment) -> int:
 
 def motion_span(lines: Iterable[WireLine], settings: GrblSettings, *, start_mm=(0.0, 0.0, 0.0),
                 baud: float | None = None, reply_latency_s: float = 0.0) -> tuple[float, float]:
-    """(first step, end of the last step) of the lines on grbl's clock, in seconds from the
-    first byte sent: what a job-time measurement on a board (or grbl-sim) reads."""
+    """(first step, last step) of the lines on grbl's clock, in seconds from the first byte sent,
+    as grbl's position counter (sys_position, which grbl-sim logs) changes. The step interrupt's
+    Bresenham counters start half full, so the longest axis steps at half-step points of its
+    progress: the first step half a step into the motion, the last half a step before its end,
+    on the grid of the interrupt (2**level runs per step under AMASS)."""
     first = last = None
     for rec in Board(settings, start_mm=start_mm, baud=baud, reply_latency_s=reply_latency_s).run(lines):
         if rec[0] == "segment":
-            first = rec[1] if first is None else first
-            last = rec[3]
+            seg = rec[2]
+            half = (1 << seg.amass_level) // 2  # interrupt runs in half a step
+            if first is None:
+                first = rec[1] + half * seg.isr_ticks / F_CPU_HZ
+            last = rec[3] - max(half, 1) * seg.isr_ticks / F_CPU_HZ
     return (0.0, 0.0) if first is None else (first, last)
