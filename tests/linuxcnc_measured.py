@@ -49,6 +49,11 @@ class Measured:
     def id(self) -> str:
         return f"{self.machine}/{self.program}"
 
+    @property
+    def waits_dominate(self) -> bool:
+        """A program written to measure task's waits (their spread, not the planner's)."""
+        return self.note.startswith("task waits")
+
 
 def measured() -> list[Measured]:
     with open(DATA / "measured.csv", newline="") as f:
@@ -69,6 +74,11 @@ class TwinRun:
     @property
     def cycle_time_s(self) -> float:
         return (self.final - self.first_move + 1) * self.period_s
+
+    @property
+    def stood_s(self) -> float:
+        """Standing time between the first and the last move (task waits, dwells)."""
+        return float(np.count_nonzero(self.limit[self.first_move:self.final + 1] == LIMIT_DWELL)) * self.period_s
 
 
 def twin_run(path: Path, ini: Path, *, feed_override: float = 1.0) -> TwinRun:
@@ -95,6 +105,12 @@ def profile(m: Measured) -> np.ndarray | None:
         return None
     with gzip.open(f, "rt") as fh:
         return np.loadtxt(fh, delimiter=",", skiprows=1)
+
+
+def measured_waits() -> list[tuple[str, int, str, int]]:
+    """waits.csv: (program, line, block, periods LinuxCNC stood after that block)."""
+    with open(DATA / "waits.csv", newline="") as f:
+        return [(r["program"], int(r["line"]), r["block"], int(r["stood_periods"])) for r in csv.DictReader(f)]
 
 
 def percent_error(predicted: float, measured_s: float) -> float:

@@ -24,11 +24,14 @@ NF = 51
 # int columns
 KIND, CANON, LINE, TERM, ACTIVE, BLENDING_NEXT, SPLITTING, REMOVE = 0, 1, 2, 3, 4, 5, 6, 7
 IS_BLENDING, ON_FINAL_DECEL, ACCEL_MODE, FINALIZED, SPIRAL_IN, VMAX_REASON, TMAG_ZERO = 8, 9, 10, 11, 12, 13, 14
-NI = 15
+# the first segment after the queue ran empty: the run cycle activates it before any later one
+# arrives (or under the feed hold of run_linuxcnc.sh's pre-fill), so it never gets a ramp
+QUEUE_START = 15
+NI = 16
 
 
-def pack(segs: list[Tc]) -> tuple[np.ndarray, np.ndarray]:
-    """Rows for segments whose plan is final."""
+def pack(segs: list[Tc], queue_start: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Rows for segments whose plan is final; `queue_start`: the first one starts the queue."""
     F = np.zeros((len(segs), NF))
     I = np.zeros((len(segs), NI), np.int64)
     for k, tc in enumerate(segs):
@@ -58,4 +61,6 @@ def pack(segs: list[Tc]) -> tuple[np.ndarray, np.ndarray]:
                                                                               s.rend, s.utan)
             f[RADIUS], f[ANGLE], f[SPIRAL], f[LINE_LEN] = s.radius, s.angle, s.spiral, s.line_length
             f[SANGLE] = np.sin(s.angle)
+    if len(segs) and queue_start:
+        I[0, QUEUE_START] = 1
     return F, I

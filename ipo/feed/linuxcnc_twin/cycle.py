@@ -17,13 +17,13 @@ from math import acos, cos, sin, sqrt
 import numpy as np
 from numba import njit
 
-from ipo.contracts import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_PROGRAMMED, LIMIT_SEGMENT
+from ipo.contracts import LIMIT_ACCEL, LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_PROGRAMMED, LIMIT_SEGMENT
 from ipo.feed.linuxcnc_twin.columns import (ACC_T, ACCEL_MODE, ACTIVE, ANGLE, B0, B1, BLENDING_NEXT, BLENDVEL, C,
                                             CANON, CURVEL, CYCLE, FINALIZED, FINALVEL, IS_BLENDING, KIND, LINE,
                                             LINE_LEN, MAXVEL, ON_FINAL_DECEL, P0, PLEN, PROGRESS, RADIUS, REMOVE,
                                             REQVEL, RH, RP, RT, SANGLE, SPIRAL, SPIRAL_IN, SPLITTING, TARGET, TERM,
                                             TERMVEL, TMAG_ZERO, TOL, U, UAE, UAS, V_TRI, VEL_AT_BLEND, VMAX_REASON,
-                                            P1)
+                                            P1, QUEUE_START)
 from ipo.feed.linuxcnc_twin.segments import TC_LINEAR, TC_CIRCULAR, TERM_EXACT, TERM_PARABOLIC, TERM_STOP, \
     TERM_TANGENT, TRAVERSE, VMAX_CURVATURE, VMAX_SAMPLE
 
@@ -31,6 +31,7 @@ POS_EPSILON = 1e-12
 VEL_EPSILON = 1e-8
 TIME_EPSILON = 1e-12
 MIN_ARC_ANGLE = 1e-3
+STILL_MM = 1e-9  # below this a period's displacement is no motion
 # params: T, feed scale (G1..G3), max feed scale ([DISPLAY]MAX_FEED_OVERRIDE), vLimit, ramp frequency
 P_T, P_SCALE, P_MAXSCALE, P_VLIMIT, P_RAMP = 0, 1, 2, 3, 4
 
@@ -254,14 +255,15 @@ def _blend_velocity(F, I, k, nk, p):
 
 @njit(cache=True, error_model="numpy")
 def _activate(F, I, k, p):
-    """tpActivateSegment: a tangent segment shorter than one ramp period gets a ramp."""
+    """tpActivateSegment: a tangent segment shorter than one ramp period gets a ramp (not the
+    first of a queue: LinuxCNC activates that one while it knows no final speed yet)."""
     if I[k, ACTIVE]:
         return
     length = F[k, TARGET] - F[k, PROGRESS]
     v_sum = F[k, CURVEL] + min(F[k, FINALVEL], _target_vel(F, I, k, p))
     seg_time = 2.0 * length / v_sum if v_sum > 0.0 else np.inf
     if (seg_time < 1.0 / max(p[P_RAMP], TIME_EPSILON) and I[k, CANON] != TRAVERSE and I[k, TERM] == TERM_TANGENT
-            and length != 0):
+            and length != 0 and not I[k, QUEUE_START]):
         I[k, ACCEL_MODE] = 1
     I[k, ACTIVE] = 1
     I[k, BLENDING_NEXT] = 0
@@ -287,6 +289,7 @@ def run_cycles(F, I, head, stop, final, p, pos, out_pos, out_vel, out_line, out_
     three segments are left to look at; returns (periods written, new head)."""
     n = 0
     tmp = np.empty(3)
+    before = np.empty(3)
     cap = len(out_vel)
     T = p[P_T]
     tail = len(F)
@@ -297,7 +300,10 @@ def run_cycles(F, I, head, stop, final, p, pos, out_pos, out_vel, out_line, out_
         I[k, IS_BLENDING] = 0
         if nk >= 0:
             I[nk, IS_BLENDING] = 0
-        rep, vel, acc = k, 0.0, 0.0  # the status reads 0 in a period that updates none
+        # the status reads 0 in a period that updates no segment (the end of the last one)
+        rep, vel, acc = k, 0.0, 0.0
+        for d in range(3):
+            before[d] = pos[d]
         if I[k, SPLITTING]:
             if not I[k, REMOVE]:
                 _position(F, I, k, F[k, PROGRESS], tmp)
@@ -337,7 +343,9 @@ def run_cycles(F, I, head, stop, final, p, pos, out_pos, out_vel, out_line, out_
             out_pos[n, d] = pos[d]
         out_vel[n] = vel
         out_line[n] = I[rep, LINE]
-        out_reason[n] = _reason(F, I, rep, acc, p)
+        # a period that moves no axis by STILL_MM stands (as run_linuxcnc.sh reads LinuxCNC)
+        moved = max(abs(pos[0] - before[0]), abs(pos[1] - before[1]), abs(pos[2] - before[2])) > STILL_MM
+        out_reason[n] = _reason(F, I, rep, acc, p) if moved else LIMIT_DWELL
         n += 1
         if I[k, REMOVE]:
             # tpCompleteSegment

@@ -8,7 +8,8 @@ comments included, is skipped; a trailing backslash continues a line); the loade
 - [EMCMOT]SERVO_PERIOD (ns): the planner's cycle;
 - [TRAJ]COORDINATES, LINEAR_UNITS (mm, metric, in, inch, imperial), MAX_LINEAR_VELOCITY and
   the arc-blend keys ARC_BLEND_ENABLE, ARC_BLEND_OPTIMIZATION_DEPTH, ARC_BLEND_GAP_CYCLES,
-  ARC_BLEND_RAMP_FREQ, ARC_BLEND_KINK_RATIO; [DISPLAY]MAX_FEED_OVERRIDE;
+  ARC_BLEND_RAMP_FREQ, ARC_BLEND_KINK_RATIO; [DISPLAY]MAX_FEED_OVERRIDE; [TASK]CYCLE_TIME and
+  [EMCIO]CYCLE_TIME (how long task waits at spindle, coolant and tool blocks);
 - [AXIS_X], [AXIS_Y], [AXIS_Z]: MAX_VELOCITY, MAX_ACCELERATION (and OFFSET_AV_RATIO, the share
   2.9 keeps back for external offsets);
 - [JOINT_n]: MAX_VELOCITY, MAX_ACCELERATION are checked to be numbers if present; in 2.9 they
@@ -25,9 +26,10 @@ import re
 from pathlib import Path
 
 from ipo.config import ConfigError
-from ipo.feed.linuxcnc_twin.settings import (DEFAULT_ARC_BLEND_ENABLE, DEFAULT_GAP_CYCLES, DEFAULT_KINK_RATIO,
-                                             DEFAULT_MAX_FEED_OVERRIDE, DEFAULT_OPTIMIZATION_DEPTH,
-                                             DEFAULT_RAMP_FREQ_HZ, LinuxcncSettings)
+from ipo.feed.linuxcnc_twin.settings import (DEFAULT_ARC_BLEND_ENABLE, DEFAULT_GAP_CYCLES, DEFAULT_IO_CYCLE_S,
+                                             DEFAULT_KINK_RATIO, DEFAULT_MAX_FEED_OVERRIDE,
+                                             DEFAULT_OPTIMIZATION_DEPTH, DEFAULT_RAMP_FREQ_HZ, DEFAULT_TASK_CYCLE_S,
+                                             LinuxcncSettings)
 
 _LINEAR_UNITS_MM = {"mm": 1.0, "metric": 1.0, "in": 25.4, "inch": 25.4, "imperial": 25.4}
 _BOOL = {"true": 1, "yes": 1, "1": 1, "false": 0, "no": 0, "0": 0}
@@ -149,4 +151,6 @@ def load_ini(path: str | Path) -> LinuxcncSettings:
                               high=1e6),
         kink_ratio=r.number("TRAJ", "ARC_BLEND_KINK_RATIO", DEFAULT_KINK_RATIO),
         max_feed_override=r.number("DISPLAY", "MAX_FEED_OVERRIDE", DEFAULT_MAX_FEED_OVERRIDE),
+        task_cycle_s=r.number("TASK", "CYCLE_TIME", DEFAULT_TASK_CYCLE_S, low=1e-4, high=10.0),
+        io_cycle_s=r.number("EMCIO", "CYCLE_TIME", DEFAULT_IO_CYCLE_S, low=1e-4, high=10.0),
         source=str(path))

@@ -12,9 +12,9 @@ so every plot, trace and comparison works with it. The pipeline per entity:
 
 Task, between the interpreter and the planner, waits for the motion queue to empty before
 any spindle, coolant, tool, message, dwell, program stop or end, digital output "now" or user
-M-code (emctaskmain.cc emcTaskCheckPreconditions): the twin stops there too, then emits the
-event. It assumes task keeps the queue ahead of the run cycle (LinuxCNC's queue holds 2000
-segments; run_linuxcnc.sh fills it before motion starts).
+M-code (ipo.feed.linuxcnc_twin.waits): the twin stops there too, stands as long as task
+typically takes, then emits the event. It assumes task keeps the queue ahead of the run cycle
+(LinuxCNC's queue holds 2000 segments; run_linuxcnc.sh fills it before motion starts).
 """
 from __future__ import annotations
 
@@ -30,18 +30,12 @@ from ipo.feed.linuxcnc_twin.columns import NF, NI, pack
 from ipo.feed.linuxcnc_twin.cycle import run_cycles
 from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings, from_machine
 from ipo.feed.linuxcnc_twin.tp import TrajectoryPlanner
+from ipo.feed.linuxcnc_twin.waits import TaskWaits, stops_motion
 from ipo.interp.reference_word import quantise
-from ipr.entities import MOTION_TYPES, Auxiliary, Dwell, ProgramEnd
+from ipr.entities import MOTION_TYPES, Dwell, ProgramEnd
 
 _START_TOL_MM = 1e-6
 _CHUNK = 256  # segments packed and run per call while the program is read
-# codes task sends without waiting for motion (synced I/O, override switches, tool number)
-_INLINE_CODES = frozenset({"M62", "M63", "M67", "M48", "M49", "M50", "M51", "M52", "M53", "M61"})
-
-
-def stops_motion(e) -> bool:
-    """Task waits for the motion queue to empty before it (emcTaskCheckPreconditions)."""
-    return not (isinstance(e, Auxiliary) and e.code in _INLINE_CODES)
 
 
 class LinuxcncTwin:
@@ -66,6 +60,7 @@ class LinuxcncTwin:
         self.head = 0
         self.batch = int(batch_periods)
         self.inline: list[tuple[int, object]] = []  # (segments queued before it, event)
+        self.waits = TaskWaits(settings)
         self.queued = 0  # segments handed to the run cycle so far
 
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
@@ -79,12 +74,11 @@ class LinuxcncTwin:
                 self.inline.append((self.queued + len(self.tp.queue), e))
             else:
                 yield from self._drain()
-                if isinstance(e, Dwell):
-                    yield from self._stand(e.seconds, e.line)
-                    continue
-                yield e
+                if not isinstance(e, Dwell):
+                    yield e
                 if isinstance(e, ProgramEnd):
                     return
+                yield from self._stand(self.waits.seconds(e), e.line)
         yield from self._drain()
 
     def _check_start(self, e) -> None:
@@ -102,7 +96,7 @@ class LinuxcncTwin:
         if not final and n < _CHUNK:
             return
         if n:
-            F, I = pack(self.tp.take(n))
+            F, I = pack(self.tp.take(n), queue_start=self.head >= len(self.F))
             self.F = np.concatenate([self.F[self.head:], F])
             self.I = np.concatenate([self.I[self.head:], I])
             self.head = 0

@@ -7,7 +7,8 @@ are sized for the highest override). [JOINT_n] limits bound only jogging and hom
 
 Without a LinuxCNC INI file (ipo.feed.linuxcnc_twin.ini) the settings come from the machine
 file: its axis limits as [AXIS_*], its period as [EMCMOT]SERVO_PERIOD, its rapid_mm_s as
-[TRAJ]MAX_LINEAR_VELOCITY, and LinuxCNC 2.9's defaults for the rest (initraj.cc).
+[TRAJ]MAX_LINEAR_VELOCITY, task's and iocontrol's cycles as LinuxCNC's configuration tools
+write them (10 ms, 100 ms), and LinuxCNC 2.9's defaults for the rest (initraj.cc).
 """
 from __future__ import annotations
 
@@ -22,6 +23,11 @@ DEFAULT_GAP_CYCLES = 4
 DEFAULT_RAMP_FREQ_HZ = 100.0
 DEFAULT_KINK_RATIO = 0.1
 DEFAULT_MAX_FEED_OVERRIDE = 1.0
+DEFAULT_TASK_CYCLE_S = 0.100  # [TASK]CYCLE_TIME (emccfg.h)
+DEFAULT_IO_CYCLE_S = 0.100  # [EMCIO]CYCLE_TIME
+# what LinuxCNC's configuration tools (stepconf, pncconf) write: the machine file's stand-ins
+MACHINE_TASK_CYCLE_S = 0.010
+MACHINE_IO_CYCLE_S = 0.100
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,6 +42,8 @@ class LinuxcncSettings:
     ramp_freq_hz: float = DEFAULT_RAMP_FREQ_HZ  # [TRAJ]ARC_BLEND_RAMP_FREQ
     kink_ratio: float = DEFAULT_KINK_RATIO  # [TRAJ]ARC_BLEND_KINK_RATIO
     max_feed_override: float = DEFAULT_MAX_FEED_OVERRIDE  # [DISPLAY]MAX_FEED_OVERRIDE
+    task_cycle_s: float = MACHINE_TASK_CYCLE_S  # [TASK]CYCLE_TIME: task's loop
+    io_cycle_s: float = MACHINE_IO_CYCLE_S  # [EMCIO]CYCLE_TIME: iocontrol's loop (coolant, tools)
     source: str = "machine file"
 
     @property
