@@ -1,4 +1,4 @@
-"""Controller twins against the controllers themselves: per program, the job time measured on the
+"""Controller twins against the controllers they model: per program, the job time measured on the
 controller's own firmware or simulator, the twin's prediction and its error, and the same for a
 naive estimate (each move's length over its feed, capped at the axes' max rates, G0 at them, plus
 dwells: no acceleration), and the
@@ -8,6 +8,8 @@ grbl rows: tests/data/grbl_sim/measured.json (grbl 1.1h in grbl-sim; its provena
 file), read by tests/grbl_sim_cases.py: the twin is fed the exact lines `vcnc stream --dry-run`
 sends, over the wire the measurement used (a baud rate, or grbl-sim's own byte period). Corpus
 programs (`corpus/...`) are read from ../shared and left out where it is absent.
+
+LinuxCNC 2.9 rows: bench/twins_linuxcnc.py (measurements in tests/data/linuxcnc_twin).
 
 Bar (issue 18): median error <= 1 %, worst <= 3 %.
 
@@ -22,7 +24,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "bench")]
+
+import twins_linuxcnc  # noqa: E402
 
 from grbl_sim_cases import SIM_CLIENT_S, cases  # noqa: E402
 from ipo.feed.grbl_twin.twin import motion_span  # noqa: E402
@@ -73,6 +77,9 @@ def grbl_rows():
 
 
 def main() -> None:
+    twins_linuxcnc.print_rows(twins_linuxcnc.rows())
+    print()
+    print("grbl 1.1 twin against grbl 1.1h in grbl-sim (tests/data/grbl_sim)")
     rows = list(grbl_rows())
     print(f"{'controller':10s} {'program':44s} {'measured':>9s} {'twin':>9s} {'error':>8s} {'naive':>9s} "
           f"{'error':>8s} {'twin wall':>9s}")

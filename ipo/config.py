@@ -36,6 +36,7 @@ DIALECTS = ("linuxcnc", "fanuc", "haas", "mach3", "grbl")
 PLANNERS = {
     "vcnc": "ipo.feed.planner",
     "grbl": "ipo.feed.grbl_twin.twin",
+    "linuxcnc": "ipo.feed.linuxcnc_twin.planner",
 }
 
 
