@@ -3,12 +3,10 @@
 The look-ahead planner (ipo.feed.planner) decides where along the path each period ends; this
 module turns those arc lengths into machine positions (lines, arcs and blends evaluated
 exactly by arc length, a NURBS walked by its stepper), quantises them to BLU increments
-(ipo.interp.reference_word.quantise), passes them through the S-curve filter in that mode
-(ipo.feed.scurve) and cuts the batches where events sit.
+(ipo.interp.reference_word.quantise) and cuts the batches where events sit.
 
 It owns the state that belongs to the machine rather than to the plan: where the machine
-stands (in mm and in BLU) and the S-curve filter with the arc length it has put out. It
-reads the planner's window (ipo.feed.window: pieces, where they start, their NURBS
+stands (in mm and in BLU). It reads the planner's window (ipo.feed.window: pieces, where they start, their NURBS
 drivers, pending events) on each call and changes nothing in it.
 """
 from __future__ import annotations
@@ -23,7 +21,6 @@ from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
-from ipo.feed.scurve import MovingAverage
 
 
 def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.ndarray,
@@ -63,37 +60,20 @@ def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarra
 
 
 class PeriodOutput:
-    """Machine position and S-curve filter state; see the module docstring."""
+    """Where the machine stands; see the module docstring."""
 
-    def __init__(self, config: MachineConfig, fir: MovingAverage | None, *, start_mm, batch_periods: int):
+    def __init__(self, config: MachineConfig, *, start_mm, batch_periods: int):
         self.T = config.period_s
         self.blu_mm = config.blu_mm
         self.batch_periods = batch_periods
-        self.fir = fir
         self.pos = np.array(start_mm, dtype=float)
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
-        self.s_out = 0.0  # arc length of the last period sent (S-curve filter output)
 
-    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, *, flush: bool):
-        """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
-        filter in that mode; `flush` runs the filter out at a stop. The window's events due
-        by the end are yielded in place; the generator returns how many (the window's owner
-        drops them: this side only reads the window)."""
-        if self.fir is None:
-            return (yield from self._batch(sv, s_prev, limit, window))
-        smooth = self.fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
-        if flush:
-            limit = np.concatenate([limit, np.full(self.fir.m - 1, LIMIT_ACCEL, np.int8)])
-        s_f = self.s_out + np.cumsum(smooth)
-        if flush:
-            s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
-        prev = self.s_out
-        self.s_out = float(s_f[-1])
-        return (yield from self._batch(s_f, prev, limit, window))
-
-    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window):
-        """Points at arc lengths sv, quantised; split where events sit. Returns the number
-        of the window's events put out."""
+    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window):
+        """Planned arc lengths sv of consecutive periods to the machine: points, quantised,
+        split where events sit. The window's events due by the end are yielded in place; the
+        generator returns how many (the window's owner drops them: this side only reads the
+        window)."""
         pieces, pstart, nurbs, events = window.pieces, window.pstart, window.drivers, window.events
         loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
         # a period ending exactly on a piece boundary belongs to the piece it completes

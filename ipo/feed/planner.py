@@ -9,10 +9,10 @@ period (ipo.feed.emission; a NURBS walked by its stepper with the target step v*
 Bounded memory: the planner holds a window that reaches one stopping distance beyond
 what it commits, and it emits the committed part chunk by chunk.
 
-S-curve mode (accel_mode = "scurve"): the per-period path steps pass a moving average
-over 2 A / J seconds (ipo.feed.scurve), the planner gives the tangential and centripetal
-shares half of each axis limit each, caps are spread over what the filter mixes, and
-unblended corners become stops.
+S-curve mode (accel_mode = "scurve"): the acceleration-limited profile becomes jerk-limited
+segments between anchors (ipo.feed.scurve, ipo.feed.jerk_plan), with the tangential and
+centripetal shares of each axis limit split only where the path curves; unblended corners
+become stops.
 
 Feed override. `plan_periods(..., feed_override=f)` plans every feed move at f times its
 programmed feed (rapids are not overridden; the other limits always hold). A real-time
@@ -29,8 +29,8 @@ import numpy as np
 
 from ipo.feed import lookahead as la
 from ipo.config import METHODS, MachineConfig
-from ipo.feed.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, jerk_accel_scale, low_caps_to_stops,
-                             lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
+from ipo.feed import scurve
+from ipo.feed.limits import CORNER_SHARE, axis_velocity_cap, g2_blend_limits, min_blend_radius_mm, sample_caps
 from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.merge import merge_collinear
@@ -41,7 +41,6 @@ from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.split import corner_parts
 from ipo.feed.window import Window
 from ipo.feed.sampling import Samples, nurbs_table, sample
-from ipo.feed.scurve import MovingAverage
 from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 
@@ -82,25 +81,18 @@ class FeedPlanner:
         self._win = Window()  # the look-ahead window (where the machine stands is self._output's)
         self._phase = self.T  # time from the first held sample to the next period end
         self._s_last = 0.0  # planned arc length at the end of the last period
-        self._fir = None
-        self._j_max = None
+        self._j_max = None  # S-curve mode: the share of each axis jerk the curvature terms' caps get
+        self._j_axis = None  # S-curve mode: each axis's jerk limit
         if config.accel_mode == "scurve":
-            # the filter's own ramps use up to half of J; the steps of curvature where pieces
-            # meet and the centripetal acceleration along curves get the other half
-            self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * (0.5 * ACCEL_USE)
-            # the filter shifts the path acceleration along the path against the centripetal
-            # share planned for each point: each gets half of every axis limit
-            self.a_max = self.a_max / 2
-            # a planned reversal from +A/2 to -A/2 steps an axis acceleration by A: the filter
-            # spreads it over 2 A / J seconds, a jerk of J / 2
-            self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
-                                                 np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
+            self._j_axis = np.array([a.max_jerk_mm_s3 for a in config.axes]) * ACCEL_USE
+            # the steps of curvature where pieces meet and the centripetal acceleration along
+            # curves get half of J; the path's own jerk on curves the other half (jerk_plan)
+            self._j_max = 0.5 * self._j_axis
         # the corner settings pieces.build takes (S-curve mode: arcs no tighter than this; the
         # curvature-continuous corners' limits), public so that a study can force arcs
-        self.min_blend_radius_mm = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
-        self.g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
-        # the output side runs the filter; the planner reads only its span (fir.m)
-        self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
+        self.min_blend_radius_mm = min_blend_radius_mm(self.a_max, self._j_max, self.T)
+        self.g2_limits = g2_blend_limits(self.a_max, self._j_max, self.T)
+        self._output = PeriodOutput(config, start_mm=start_mm, batch_periods=self.batch_periods)
         self._rpm = 0.0
         self._finishing = _finishing_params(config)
         self._end_gap_mm = nurbs_end_gap_mm(config)
@@ -223,13 +215,13 @@ class FeedPlanner:
         feed = win.pieces.feed_mm_s[loc] * np.where(win.pieces.rapid[loc], 1.0, self._override)
         xf = feed**2
         hard = win.cap
-        if self._fir is not None:
-            hard = low_caps_to_stops(hard, win.samples.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
-            hard = spread_min(win.samples.s, hard, self._fir.m * self.T, self.T, float(np.linalg.norm(self.a_max)))
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, win.reason).astype(np.int8)
 
     def _plan(self, *, final: bool) -> Iterator:
+        if self._j_axis is not None:
+            yield from scurve.run(self, final)
+            return
         while self._win.samples is not None and len(self._win.samples) > 1:
             self._override_changed = False
             smp = self._win.samples
@@ -265,13 +257,9 @@ class FeedPlanner:
 
     def _ascale(self, n: int, cap: np.ndarray) -> np.ndarray:
         """Share of the path acceleration in the first n - 1 sample intervals: halved next to
-        sharp corners; in S-curve mode also kept within the jerk on curves (jerk_accel_scale)."""
+        sharp corners."""
         win = self._win
-        scale = np.where(win.corner[:n - 1] | win.corner[1:n], CORNER_SHARE, 1.0)
-        if self._j_max is not None:
-            scale = np.minimum(scale, jerk_accel_scale(win.samples.t[:n], win.samples.kv[:n], cap[:n], self.a_max,
-                                                       float(self._j_max.min())))
-        return scale
+        return np.where(win.corner[:n - 1] | win.corner[1:n], CORNER_SHARE, 1.0)
 
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
@@ -302,7 +290,7 @@ class FeedPlanner:
             sv, kseg = la.positions_at(np.minimum(times, tc[-1]), s, xs, tc)
             if exact_stop:
                 sv[-1] = s[-1]
-            yield from self._out(sv, s_prev, seg_reason[kseg], flush=stop and n == fit)
+            yield from self._out(sv, s_prev, seg_reason[kseg])
             s_prev = self._s_last = float(sv[-1])
             t_next = times[-1] + self.T
             if n == fit:
@@ -316,19 +304,19 @@ class FeedPlanner:
                 if more:
                     times = t_next + self.T * np.arange(more)
                     sv, kseg = la.positions_at(times, s, xs, tc)
-                    yield from self._out(sv, s_prev, seg_reason[kseg], flush=False)
+                    yield from self._out(sv, s_prev, seg_reason[kseg])
                     s_prev = self._s_last = float(sv[-1])
                     t_next = times[-1] + self.T
                 break
         self._phase = t_next - (tc[r_stop] if k_stop < c else tc[c_ref])
         self._win.x0_v2 = float(x[k_stop])
-        self._win.drop(k_stop, None if self._fir is None else self._output.s_out)
+        self._win.drop(k_stop)
         if stop and k_stop == c:
             self._phase = self.T
 
-    def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
+    def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray) -> Iterator:
         """Periods to the output side, which reads the window as it stands now."""
-        used = yield from self._output.periods(sv, s_prev, limit, self._win, flush=flush)
+        used = yield from self._output.periods(sv, s_prev, limit, self._win)
         self._win.take_events(used)
 
 def _finishing_params(cfg: MachineConfig):
