@@ -10,7 +10,8 @@ always starts at an anchor) and the v^2 it must end with.
    every plateau of x_acc that is not a peak, and the
    samples where the path changes between straight and curved (straights shorter than
    `straight_min_mm` between curved pieces count as curved). Speeds at anchors: at most
-   sqrt(x_acc), acceleration zero.
+   sqrt(x_acc), acceleration zero. x_acc is first held to what the curvature allows with no
+   path acceleration, |kv_i| v^2 <= A_i (the look-ahead may ride the curvature cap with some).
 2. Path limits of each gap between anchors: straight, A_i / |t_i| and J_i / |t_i|; curved,
    the same acceleration with TANGENTIAL_JERK_SHARE of the jerk; each times a scale that starts
    at 1 (step 4 lowers it).
@@ -31,7 +32,8 @@ from numba import njit
 from ipo.feed.jerk_profile import (COUPLING_JERK_SHARE, TANGENTIAL_JERK_SHARE, peak_speed, phases, reach, reach_down,
                                    state, time_at, transition_distance)
 
-_ROUNDS = 60  # of steps 3 and 4; each round fixes something, and scales only fall
+_ROUNDS = 40  # of steps 3 and 4; each round fixes something, and scales only fall; after half
+# of them a gap that still fails has every sample as an anchor
 _SCALE_STEP = 0.7
 # a peak lowered by more than this share to stay under x_acc makes the worst sample an anchor instead
 _PEAK_GIVE = 0.02
@@ -168,10 +170,38 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
 
 
 @njit(cache=True)
+def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
+    """Make the worst sample of every run of samples where the segment passes above x_acc an
+    anchor; whether any was new."""
+    length = s[hi] - s[lo]
+    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    new = False
+    best, best_r = -1, 1.0
+    for k in range(lo, hi + 2):
+        r = 1.0
+        if k <= hi:
+            v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+            if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
+                r = v * v / max(x[k], 1e-300)
+        if r > best_r:
+            best, best_r = k, r
+        elif r <= 1.0 and best >= 0:
+            new |= not anchor[best]
+            anchor[best] = True
+            best, best_r = -1, 1.0
+    return new
+
+
+@njit(cache=True)
 def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
     """Anchors (sample indices), their speeds, and per gap the peak speed and the path
     acceleration and jerk limits; converged is False if the rounds ran out."""
     n = s.shape[0]
+    x = x.copy()
+    for k in range(n):  # the look-ahead may ride a curvature cap with the help of s'' != 0
+        for i in range(3):
+            if kv[k, i] != 0.0:
+                x[k] = min(x[k], (1.0 - 1e-6) * a_axis[i] / abs(kv[k, i]))
     curved = _curved_intervals(s, t, kv, straight_min_mm)
     anchor = _anchors(s, x, curved)
     scale = np.ones(max(n - 1, 1))
@@ -186,7 +216,7 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
     vp = np.zeros(max(m - 1, 0))
     ag = np.zeros(max(m - 1, 0))
     jg = np.zeros(max(m - 1, 0))
-    for _ in range(_ROUNDS):
+    for rnd in range(_ROUNDS):
         idx = np.nonzero(anchor)[0]
         m = idx.shape[0]
         ag = np.zeros(m - 1)
@@ -243,9 +273,11 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
                     worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis,
                                          cv[g])
             vp[g] = p
-            if worst >= 0 and not anchor[worst]:
-                anchor[worst] = True
+            if (worst >= 0 or over) and rnd >= _ROUNDS // 2:
+                anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample
                 changed = True
+            elif worst >= 0:
+                changed |= _anchor_peaks(s, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], anchor)
             if over:
                 scale[lo:hi] *= _SCALE_STEP
                 changed = True
