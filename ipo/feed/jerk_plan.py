@@ -18,8 +18,9 @@ always starts at an anchor) and the v^2 it must end with.
 3. Anchor speeds by a backward and a forward pass (jerk_profile.reach), then each gap's peak
    speed (jerk_profile.peak_speed, at most the highest sqrt(x_acc) inside it).
 4. Checks at every sample of every gap, with the segment's own speed, acceleration and jerk
-   there: v^2 <= x_acc; |t_i s'' + kv_i v^2| <= A_i; on curves |t_i| |s'''| + 3 |kv_i| v |s''|
-   <= (TANGENTIAL_JERK_SHARE + COUPLING_JERK_SHARE) J_i (ipo.feed.limits' caps hold the rest).
+   there: v^2 <= x_acc; |t_i a + kv_i v^2| <= A_i; |t_i j| + 3 |kv_i| v |a| + |kv_i'| v^3 <= J_i
+   (kv' from the neighbouring samples; at a piece joint where the curvature steps the first
+   two within J_i / 2, the caps of ipo.feed.limits holding the step within the other half).
    A speed over x_acc lowers the peak where a little (_PEAK_GIVE) is enough, else makes the
    worst sample an anchor; an axis over its limit lowers the gap's scale. Then back to 3,
    until every gap passes.
@@ -29,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ipo.feed.jerk_profile import (COUPLING_JERK_SHARE, TANGENTIAL_JERK_SHARE, peak_speed, phases, reach, reach_down,
+from ipo.feed.jerk_profile import (TANGENTIAL_JERK_SHARE, peak_speed, phases, reach, reach_down,
                                    state, time_at, transition_distance)
 
 _ROUNDS = 40  # of steps 3 and 4; each round fixes something, and scales only fall; after half
@@ -38,6 +39,7 @@ _SCALE_STEP = 0.7
 # a peak lowered by more than this share to stay under x_acc makes the worst sample an anchor instead
 _PEAK_GIVE = 0.02
 _SLACK = 1e-9
+_JOINT_MM = 1e-9  # samples closer than this are the two sides of one piece joint
 _STANDSTILL = 1e-9  # mm/s
 
 
@@ -113,20 +115,34 @@ def _step(kv, k, other, i):
 
 
 @njit(cache=True)
-def _axes_over(t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
-    """Some axis over its acceleration or its jerk budget with the geometry of sample k and
-    the state v, acc, jk (speed, path acceleration and jerk); step: the curvature step per
-    axis where sample k is a piece joint."""
-    jshare = TANGENTIAL_JERK_SHARE + COUPLING_JERK_SHARE if curved else 1.0  # the caps hold the rest
+def _rate(s, kv, k, i):
+    """|dkv_i/ds| at sample k from the neighbouring samples along the path (the larger side;
+    a piece joint, two samples at one arc length, is a step, not a rate)."""
+    r = 0.0
+    if k > 0 and s[k] - s[k - 1] > _JOINT_MM:
+        r = abs(kv[k, i] - kv[k - 1, i]) / (s[k] - s[k - 1])
+    if k + 1 < s.shape[0] and s[k + 1] - s[k] > _JOINT_MM:
+        r = max(r, abs(kv[k + 1, i] - kv[k, i]) / (s[k + 1] - s[k]))
+    return r
+
+
+@njit(cache=True)
+def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
+    """Some axis over its acceleration or its jerk with the geometry of sample k and the state
+    v, acc, jk (speed, path acceleration and jerk); step: the curvature step per axis where
+    sample k is a piece joint."""
     for i in range(3):
         if abs(t[k, i] * acc + kv[k, i] * v * v) > a_axis[i] * (1.0 + _SLACK):
             return True
-        # the caps' share holds the curvature's own terms and a step where pieces meet; next
-        # to a step a straight gap keeps to the other half too, as the curve does, because
-        # the periods around the step see the jerk of both sides
-        budget = jshare if curved or step[i] == 0.0 else 0.5
+        # axis jerk t_i j + 3 kv_i v a + kv_i' v^3: the caps hold the last term within half
+        # of J_i, and a step where pieces meet too, whose jerk the periods around it see
+        # together with the jerk of both sides: there the rest keeps to the other half
+        if step[i] > 0.0:
+            budget = 0.5 * j_axis[i]
+        else:
+            budget = j_axis[i] - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
         extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
-        if abs(t[k, i]) * abs(jk) + extra > budget * j_axis[i] * (1.0 + _SLACK):
+        if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
             return True
     return False
 
@@ -151,11 +167,14 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
             r = v * v / max(x[k], 1e-300)
             if r > worst_ratio:
                 worst, worst_ratio = k, r
-        other = k - 1 if k == lo and k > 0 and s[k - 1] == s[k] else (k + 1 if k == hi and k + 1 < s.shape[0]
-                                                                      and s[k + 1] == s[k] else -1)
+        other = -1  # the sample across a piece joint at a gap's end
+        if k == lo and k > 0 and s[k] - s[k - 1] <= _JOINT_MM:
+            other = k - 1
+        elif k == hi and k + 1 < s.shape[0] and s[k + 1] - s[k] <= _JOINT_MM:
+            other = k + 1
         for i in range(3):
             step[i] = _step(kv, k, other, i)
-        axis_over |= _axes_over(t, kv, k, v, acc, jk, a_axis, j_axis, curved, step)
+        axis_over |= _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step)
     k = lo
     for q in range(1, 7):
         d = ss[q]
@@ -164,8 +183,8 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
         while k + 1 < hi and s[k + 1] - s[lo] < d:
             k += 1
         for jq in (jj[q - 1], jj[q]):
-            axis_over |= _axes_over(t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
-            axis_over |= _axes_over(t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+            axis_over |= _axes_over(s, t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+            axis_over |= _axes_over(s, t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
     return worst, axis_over
 
 

@@ -31,11 +31,10 @@ import numpy as np
 from numba import njit
 
 _BISECT = 60
-# share of each axis jerk limit left to the tangential jerk on curves (ipo.feed.limits'
-# S-curve caps keep the curvature terms within the other half); the coupling 3 kv v s'' gets
-# the rest of that half
-TANGENTIAL_JERK_SHARE = 0.35
-COUPLING_JERK_SHARE = 0.15
+# share of each axis jerk limit a curved segment's path jerk starts from (ipo.feed.limits'
+# S-curve caps keep the curvature terms within the other half; ipo.feed.jerk_plan checks the
+# sum with the terms as they are and lowers it where needed)
+TANGENTIAL_JERK_SHARE = 0.5
 _FLOOR = 1e-6  # smallest share of the nominal path limits a curved segment is given
 
 
@@ -56,20 +55,26 @@ def transition_distance(va, vb, a, j):
 
 
 @njit(cache=True)
+def _boundary(v, d, a, j, ok, bad):
+    """Bisection between a speed w = ok with transition_distance(v, w) <= d and one, bad,
+    beyond: the last speed that still fits."""
+    for _ in range(_BISECT):
+        mid = 0.5 * (ok + bad)
+        if transition_distance(v, mid, a, j) <= d:
+            ok = mid
+        else:
+            bad = mid
+    return ok
+
+
+@njit(cache=True)
 def reach(v, d, a, j):
     """The largest w >= v with transition_distance(v, w) <= d (the same as the largest speed
     from which v is reached within d: the distance is symmetric in its speeds)."""
     hi = v + max(1.0, v)
     while transition_distance(v, hi, a, j) <= d:
         hi = v + 2.0 * (hi - v)
-    lo = v
-    for _ in range(_BISECT):
-        mid = 0.5 * (lo + hi)
-        if transition_distance(v, mid, a, j) <= d:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return _boundary(v, d, a, j, v, hi)
 
 
 @njit(cache=True)
@@ -78,14 +83,7 @@ def reach_down(v, d, a, j):
     limits allow within d (0 if the machine can stop within d)."""
     if transition_distance(v, 0.0, a, j) <= d:
         return 0.0
-    lo, hi = 0.0, v
-    for _ in range(_BISECT):
-        mid = 0.5 * (lo + hi)
-        if transition_distance(v, mid, a, j) <= d:
-            hi = mid
-        else:
-            lo = mid
-    return hi
+    return _boundary(v, d, a, j, v, 0.0)
 
 
 @njit(cache=True)

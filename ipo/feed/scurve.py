@@ -17,7 +17,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo.contracts import LIMIT_ACCEL
-from ipo.errors import IpoError
+from ipo.errors import SCURVE, IpoError
 from ipo.feed import jerk_plan
 from ipo.feed import lookahead as la
 from ipo.feed.jerk_profile import TANGENTIAL_JERK_SHARE, transition_distance
@@ -28,7 +28,6 @@ _STANDSTILL_V = 1e-6
 # its share of the jerk) rather than as a segment of its own with zero acceleration at both
 # ends (a polyline's micron remnants between blends)
 STRAIGHT_MIN_MM = 0.5
-SCURVE_PLAN = "E-SCURVE-PLAN"
 
 
 class Segments(NamedTuple):
@@ -49,7 +48,7 @@ def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segmen
     """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
     idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM)
     if not ok:
-        raise IpoError(SCURVE_PLAN, "no jerk-limited profile within the axis limits was found here", line)
+        raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
     return Segments(idx, w, vp, ag, jg)
 
 
