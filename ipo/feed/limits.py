@@ -29,6 +29,11 @@ STEP_JERK_SHARE = 0.75
 # stopping at the corner (single 30 and 90 degree corners between 10 mm lines at F6000 broke
 # even near a blend cap of 7.8 mm/s, 1.56 sqrt(ramp_x))
 G2_BLEND_MIN_X = 2.5
+# S-curve mode: the curvature's own rate of change, v^3 |kv_i'| (the centripetal acceleration
+# turning and growing along a curve), may take this multiple of the steps' share of J (half):
+# 0.9 J, where the path's own jerk and its coupling, checked with the rate as it is
+# (ipo.feed.jerk_plan), keep to the rest
+RATE_OVER_STEP = 1.8
 
 
 def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
@@ -112,7 +117,8 @@ def g2_blend_limits(a_max: np.ndarray, j_max: np.ndarray | None,
     if j_max is None:
         return None
     j = float(j_max.min())
-    return (float(a_max.min()), j, G2_BLEND_MIN_X * ramp_x(a_max, j_max), j * period_s / STEP_JERK_SHARE)
+    return (float(a_max.min()), RATE_OVER_STEP * j, G2_BLEND_MIN_X * ramp_x(a_max, j_max),
+            j * period_s / STEP_JERK_SHARE)
 
 
 def curvature_rate_cap(s: np.ndarray, kv: np.ndarray, piece: np.ndarray, j_max: np.ndarray) -> np.ndarray:
@@ -271,9 +277,10 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
         # the centripetal acceleration turns with the tangent: its rate is v^3 kappa^2
         kappa = np.linalg.norm(smp.kv, axis=1)
+        j_rate = RATE_OVER_STEP * j_max
         with np.errstate(divide="ignore"):
-            x_corner = np.minimum(x_corner, (j_max.min() / kappa**2) ** (2.0 / 3.0))
-        x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_max))
+            x_corner = np.minimum(x_corner, (j_rate.min() / kappa**2) ** (2.0 / 3.0))
+        x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_rate))
     caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
     x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
     caps.append((x_chord, LIMIT_CHORD))
