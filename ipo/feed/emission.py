@@ -1,23 +1,29 @@
-"""The feed stage's output side: planned arc lengths of consecutive periods -> PeriodBatch.
+"""The feed stage's output side: a planned profile -> periods on the grid -> PeriodBatch.
 
-The look-ahead planner (ipo.feed.planner) decides where along the path each period ends; this
-module turns those arc lengths into machine positions (lines, arcs and blends evaluated
-exactly by arc length, a NURBS walked by its stepper), quantises them to BLU increments
-(ipo.interp.reference_word.quantise) and cuts the batches where events sit.
+The planner (ipo.feed.planner) plans v^2 over the window's samples and refines it
+(ipo.feed.lookahead.refine) into a `Profile`; this module puts it on the period grid
+(where along the path each period ends, lookahead.sample_times and positions_at), turns
+those arc lengths into machine positions (lines, arcs and blends evaluated exactly by arc
+length, a NURBS walked by its stepper), quantises them to BLU increments
+(ipo.interp.reference_word.quantise) and cuts the batches where events sit. S-curve mode
+hands it its jerk-limited segments as another time law (ipo.feed.scurve.SegmentLaw).
 
 It owns the state that belongs to the machine rather than to the plan: where the machine
-stands (in mm and in BLU). It reads the planner's window (ipo.feed.window: pieces, where they start, their NURBS
-drivers, pending events) on each call and changes nothing in it.
+stands (in mm and in BLU) and the period grid's phase. It reads the planner's window (ipo.feed.window: pieces, where
+they start, their NURBS drivers, pending events) and changes nothing in it: it hands back
+where it stopped and how many events it put out.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import NamedTuple
 
 import numpy as np
 
 from ipo.config import MachineConfig
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
+from ipo.feed.lookahead import positions_at, sample_times
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
@@ -59,8 +65,44 @@ def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarra
     return out & (ds > 0)
 
 
+class Profile(NamedTuple):
+    """The plan over the window's samples 0..c, refined: arc length s and v^2 at the refined
+    points, the sample each lies after (src), the limit reason of each refined interval,
+    and the samples' own arc lengths (where a replan may start)."""
+
+    s: np.ndarray
+    v2: np.ndarray
+    src: np.ndarray
+    reason: np.ndarray
+    s_samples: np.ndarray
+
+
+class RefinedLaw:
+    """A refined Profile as a time law for PeriodOutput.emit_law: constant path acceleration
+    between its points (lookahead.sample_times, positions_at)."""
+
+    def __init__(self, prof: Profile):
+        self.prof = prof
+        self.tc = sample_times(prof.s, prof.v2)
+        self.duration = float(self.tc[-1])
+        self.last = len(prof.s_samples) - 1  # the window sample it ends on
+        self.s_end = float(prof.s[-1])
+
+    def at(self, times: np.ndarray, s_prev: float):
+        """Arc length at each time, the limit reason of each period, and the refined interval
+        each falls in."""
+        sv, k = positions_at(times, self.prof.s, self.prof.v2, self.tc)
+        return sv, self.prof.reason[k], k
+
+    def cut_after(self, k: int) -> tuple[int, float]:
+        """Where a replan may start after refined interval k: the next window sample, and when."""
+        k_stop = min(int(self.prof.src[k]) + 1, self.last)
+        r = int(np.searchsorted(self.prof.s, self.prof.s_samples[k_stop], side="left"))
+        return k_stop, float(self.tc[r])
+
+
 class PeriodOutput:
-    """Where the machine stands; see the module docstring."""
+    """Machine position and period grid state; see the module docstring."""
 
     def __init__(self, config: MachineConfig, *, start_mm, batch_periods: int):
         self.T = config.period_s
@@ -68,12 +110,58 @@ class PeriodOutput:
         self.batch_periods = batch_periods
         self.pos = np.array(start_mm, dtype=float)
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
+        self._phase = self.T  # time from the first held sample to the next period end
+        self._s_last = 0.0  # planned arc length at the end of the last period
 
-    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window):
-        """Planned arc lengths sv of consecutive periods to the machine: points, quantised,
-        split where events sit. The window's events due by the end are yielded in place; the
-        generator returns how many (the window's owner drops them: this side only reads the
-        window)."""
+    def emit(self, prof: Profile, window: Window, *, stop: bool, replan: Callable[[], bool]):
+        """Periods along a refined profile (RefinedLaw); see emit_law."""
+        return (yield from self.emit_law(RefinedLaw(prof), window, stop=stop, replan=replan))
+
+    def emit_law(self, law, window: Window, *, stop: bool, replan: Callable[[], bool]):
+        """Periods along a time law up to its end (law.duration; RefinedLaw, or S-curve mode's
+        segments, ipo.feed.scurve.SegmentLaw), where the machine stops if `stop`. When
+        `replan()` turns true (a feed override changed) it runs on to where the law allows a
+        new plan to start (law.cut_after) and ends there. The generator returns (k, n): the
+        window sample it ended on (the next plan starts there) and how many of the window's
+        events it put out."""
+        t_next, s_prev, k_stop, used = self._phase, self._s_last, law.last, 0
+        t_stop = law.duration
+        while True:
+            fit = int(np.floor((law.duration - t_next) / self.T + 1e-9)) + 1 if t_next <= law.duration + 1e-12 else 0
+            n = min(fit, self.batch_periods)
+            times = t_next + self.T * np.arange(n)
+            last = times[-1] if n else t_next - self.T
+            exact_stop = stop and n == fit and law.duration - last > 1e-12
+            if exact_stop:
+                times = np.append(times, law.duration)  # the stop is reached exactly at a period's end
+            if len(times) == 0:
+                break
+            sv, reason, idx = law.at(np.minimum(times, law.duration), s_prev)
+            if exact_stop:
+                sv[-1] = law.s_end
+            used = yield from self._batch(sv, s_prev, reason, window, used)
+            s_prev = self._s_last = float(sv[-1])
+            t_next = times[-1] + self.T
+            if n == fit:
+                break
+            if replan():
+                k_stop, t_stop = law.cut_after(int(idx[-1]))
+                more = int(np.floor((t_stop - t_next) / self.T + 1e-9)) + 1 if t_next <= t_stop else 0
+                if more:
+                    times = t_next + self.T * np.arange(more)
+                    sv, reason, _ = law.at(times, s_prev)
+                    used = yield from self._batch(sv, s_prev, reason, window, used)
+                    s_prev = self._s_last = float(sv[-1])
+                    t_next = times[-1] + self.T
+                break
+        self._phase = t_next - (t_stop if k_stop < law.last else law.duration)
+        if stop and k_stop == law.last:
+            self._phase = self.T
+        return k_stop, used
+
+    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, used: int):
+        """Points at arc lengths sv, quantised; split where events sit (the window's from
+        index `used` on). Returns the index after the last event put out."""
         pieces, pstart, nurbs, events = window.pieces, window.pstart, window.drivers, window.events
         loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
         # a period ending exactly on a piece boundary belongs to the piece it completes
@@ -95,7 +183,7 @@ class PeriodOutput:
         qpos = (self.blu + np.cumsum(inc, axis=0)) * self.blu_mm
         self.blu = end
         self.pos = pos[-1].copy()
-        cut = used = 0
+        cut = 0
         while used < len(events) and events[used][0] <= sv[-1] + 1e-9:
             s_ev, ev = events[used]
             used += 1

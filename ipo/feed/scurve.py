@@ -5,9 +5,9 @@ the whole axis budget: the split between tangential and centripetal shares is ma
 ipo.feed.jerk_plan only where the path curves) -> anchors and jerk-limited segments between
 them (ipo.feed.jerk_plan) -> the segments up to the last anchor from which the machine can
 still stop before the window's end with its jerk limit are committed -> period ends on that
-time line -> ipo.feed.emission. A stop (G61, an unblended corner, the program's end) is an
-anchor at speed 0 and the period grid lands exactly on it, as in trapezoid mode. A feed
-override change takes effect at the next anchor: the rest is planned again from there.
+time line (SegmentLaw) -> ipo.feed.emission. A stop (G61, an unblended corner, the program's
+end) is an anchor at speed 0 and the period grid lands exactly on it, as in trapezoid mode. A
+feed override change takes effect at the next anchor: the rest is planned again from there.
 """
 from __future__ import annotations
 
@@ -39,10 +39,6 @@ class Segments(NamedTuple):
     ag: np.ndarray
     jg: np.ndarray
 
-    def head(self, g: int) -> "Segments":
-        """The first g gaps (anchors 0..g)."""
-        return Segments(self.idx[:g + 1], self.w[:g + 1], self.vp[:g], self.ag[:g], self.jg[:g])
-
 
 def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segments:
     """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
@@ -68,10 +64,31 @@ def period_limits(sv: np.ndarray, s_prev: float, period_s: float, s: np.ndarray,
     return np.where(at_cap, reason[k], LIMIT_ACCEL).astype(np.int8)
 
 
-def run(planner, final: bool) -> Iterator:
-    """The planner's window in S-curve mode: plan, commit, emit; again while the override
-    changed or everything must go out (final)."""
-    win = planner._win
+class SegmentLaw:
+    """Jerk-limited segments as a time law for the output side (emission.PeriodOutput.emit_law):
+    anchors at window samples seg.idx (the first at sample 0), times from the first anchor."""
+
+    def __init__(self, seg: Segments, s: np.ndarray, cap: np.ndarray, reason: np.ndarray, period_s: float):
+        self.seg, self.s, self.cap, self.reason, self.T = seg, s, cap, reason, period_s
+        dur = jerk_plan.durations(s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg)
+        self.t_start = np.concatenate([[0.0], np.cumsum(dur)])
+        self.duration = float(self.t_start[-1])
+        self.last = int(seg.idx[-1])
+        self.s_end = float(s[self.last])
+
+    def at(self, times: np.ndarray, s_prev: float):
+        seg = self.seg
+        sv, gap = jerk_plan.arc_lengths_at(times, self.s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg, self.t_start)
+        return sv, period_limits(sv, s_prev, self.T, self.s, self.cap, self.reason), gap
+
+    def cut_after(self, g: int) -> tuple[int, float]:
+        """A replan starts at the anchor that ends gap g."""
+        return int(self.seg.idx[g + 1]), float(self.t_start[g + 1])
+
+
+def run(planner, win, output, final: bool) -> Iterator:
+    """The planner's window in S-curve mode: plan, commit, emit (stop by stop, so that the
+    period grid lands on each); again while the override changed or everything must go out."""
     while win.samples is not None and len(win.samples) > 1:
         planner._override_changed = False
         smp = win.samples
@@ -79,71 +96,32 @@ def run(planner, final: bool) -> Iterator:
         x = la.plan(smp.s, smp.t, smp.kv, cap, planner.a_max, planner._ascale(len(smp), cap), win.x0_v2, 0.0)
         x[x < _STANDSTILL_X] = 0.0
         line = int(win.pieces.line[smp.piece[0] - win.piece_base])
-        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner._j_axis, float(np.sqrt(win.x0_v2)), line)
+        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)), line)
         m = len(seg.idx)
         if final:
             commit = m - 1
         else:
-            reach = stop_reach_mm(float(np.sqrt(cap.max())), planner.a_max, planner._j_axis)
+            reach = stop_reach_mm(float(np.sqrt(cap.max())), planner.a_max, planner.j_axis)
             c = int(np.searchsorted(smp.s, win.s_end_mm - reach, side="right")) - 1
             commit = int(np.searchsorted(seg.idx, c, side="right")) - 1
             if commit < 1:
                 return
-        done = yield from _emit(planner, seg.head(commit), cap, reason, final=final and commit == m - 1)
-        win.x0_v2 = float(seg.w[done]) ** 2
-        win.drop(int(seg.idx[done]))
+        ends = [g for g in range(1, commit) if seg.w[g] <= _STANDSTILL_V] + [commit]
+        done = 0
+        for e in ends:
+            base = int(seg.idx[done])
+            part = Segments(seg.idx[done:e + 1] - base, seg.w[done:e + 1], seg.vp[done:e], seg.ag[done:e],
+                            seg.jg[done:e])
+            law = SegmentLaw(part, win.samples.s, cap[base:], reason[base:], planner.T)
+            k_stop, used = yield from output.emit_law(law, win, stop=bool(part.w[-1] <= _STANDSTILL_V),
+                                                      replan=lambda: planner._override_changed)
+            win.take_events(used)
+            win.x0_v2 = float(part.w[int(np.searchsorted(part.idx, k_stop))]) ** 2
+            win.drop(k_stop)
+            if planner._override_changed:
+                break
+            done = e
         if not (final or planner._override_changed):
             return
     if final and win.samples is not None and len(win.samples) <= 1:
         win.reset()
-
-
-def _emit(planner, seg: Segments, cap: np.ndarray, reason: np.ndarray, *, final: bool):
-    """Periods over the committed gaps; returns the anchor the window now starts at (the last
-    one, or the next one after an override change)."""
-    T = planner.T
-    s = planner._win.samples.s
-    dur = jerk_plan.durations(s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg)
-    t_start = np.concatenate([[0.0], np.cumsum(dur)])
-    G = len(dur)
-    ends = [g for g in range(1, G) if seg.w[g] <= _STANDSTILL_V] + [G]
-    g0 = 0
-    for e in ends:
-        stop = seg.w[e] <= _STANDSTILL_V and (e < G or final)
-        t_end = t_start[e]
-        t_next = t_start[g0] + planner._phase
-        while True:
-            fit = int(np.floor((t_end - t_next) / T + 1e-9)) + 1 if t_next <= t_end + 1e-12 else 0
-            n = min(fit, planner.batch_periods)
-            times = t_next + T * np.arange(n)
-            last = times[-1] if n else t_next - T
-            exact = stop and n == fit and t_end - last > 1e-12
-            if exact:
-                times = np.append(times, t_end)  # the stop falls exactly on a period's end
-            if len(times) == 0:
-                break
-            sv, gap = jerk_plan.arc_lengths_at(np.minimum(times, t_end), s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg,
-                                               t_start)
-            if exact:
-                sv[-1] = s[seg.idx[e]]
-            limits = period_limits(sv, planner._s_last, T, s, cap, reason)
-            yield from planner._out(sv, planner._s_last, limits)
-            planner._s_last = float(sv[-1])
-            t_next = times[-1] + T
-            if n == fit:
-                break
-            if planner._override_changed:
-                # finish the gap under way on the old plan; the rest is planned again from its end
-                g_stop = int(gap[-1]) + 1
-                more = int(np.floor((t_start[g_stop] - t_next) / T + 1e-9)) + 1 if t_next <= t_start[g_stop] else 0
-                if more:
-                    times = t_next + T * np.arange(more)
-                    sv, _ = jerk_plan.arc_lengths_at(times, s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg, t_start)
-                    yield from planner._out(sv, planner._s_last, period_limits(sv, planner._s_last, T, s, cap, reason))
-                    planner._s_last = float(sv[-1])
-                    t_next = times[-1] + T
-                planner._phase = t_next - t_start[g_stop]
-                return g_stop
-        planner._phase = T if stop else t_next - t_end
-        g0 = e
-    return G
