@@ -13,7 +13,7 @@ from ruckig import ControlInterface, InputParameter, Ruckig, Trajectory
 from ipo.config import default_config
 from ipo.contracts import PeriodBatch
 from ipo.feed.jerk_profile import peak_speed, phases, state, time_at, transition_distance, transition_time
-from ipo.feed.planner import ACCEL_USE, VELOCITY_USE, plan_periods
+from ipo.feed.planner import ACCEL_USE, VELOCITY_USE, FeedPlanner, plan_periods
 from ipr.entities import Arc, Line, Nurbs, PathControl
 from tests.ipo.feed.test_nurbs_blend import distance_to_polyline
 
@@ -181,3 +181,25 @@ def test_random_paths_within_the_limits_and_p(kind, seed):
     # every programmed point lies within P + delta of the per-period polyline
     dev = distance_to_polyline(programmed_points(ents), pos)
     assert dev.max() <= 0.05 + CFG.chord_tol_mm + 1e-9, dev.max()
+
+
+@pytest.mark.parametrize("factor", [0.3, 1.5])
+def test_a_feed_override_change_in_s_curve_mode_keeps_the_limits(factor):
+    """The override changes while the machine runs (between batches): S-curve mode replans
+    from the next anchor; the periods stay within v/a/j and the path ends where programmed,
+    at the new feed in between (a drop brakes within the jerk limit, a raise speeds up)."""
+    p = PathControl(blend_tol_mm=0.05)
+    ents = [Line(1, (0.0, 0.0, 0.0), (100.0, 0.0, 0.0), 60.0, p), Line(2, (100.0, 0.0, 0.0), (100.0, 100.0, 0.0), 60.0, p)]
+    planner = FeedPlanner(CFG, batch_periods=64)
+    pos, n = [np.zeros((1, 3))], 0
+    for b in planner.run(ents):
+        if isinstance(b, PeriodBatch):
+            pos.append(b.pos_mm)
+            n += len(b)
+            if n == 512:
+                planner.set_feed_override(factor)
+    pos = np.vstack(pos)
+    assert_within_limits(pos)
+    np.testing.assert_allclose(pos[-1], ents[-1].end, atol=BLU)
+    on_y = np.abs(np.diff(pos[:, 1])) / T
+    assert on_y.max() == pytest.approx(min(60.0 * factor, V[1] * VELOCITY_USE), rel=1e-3)
