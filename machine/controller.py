@@ -61,15 +61,16 @@ class RunResult:
     max_axis_accel_mm_s2: list[float]
     max_axis_jerk_mm_s3: list[float]
     accel_stencil_periods: int
-    limit_violations: int
-    limit_violations_by_kind: dict[str, int | str]  # jerk: "not checked" in trapezoid mode
-    limits_checked: str  # the configured axis limits (velocity; accel[; jerk]) the periods were held to
+    limit_violations: int  # periods over a limit the mode holds (jerk only in S-curve mode)
+    limit_violations_by_kind: dict[str, int]  # periods over each limit, jerk in every mode
+    limits_checked: str  # the configured axis limits (velocity; accel; jerk) the periods were measured against
     max_chord_error_um: float
     max_contour_error_um: float | None
     deadline_misses: int | None
     realtime_factor: float  # simulated time / (check_s + wall_s): parse, check, plan, interpolate, drive
     wall_s: float  # the run: plan, interpolate, drive (and the pacing in real-time mode)
     check_s: float
+    planner: str = "vcnc"  # whose motion planning ran (machine.planners.describe)
     program_stops: list[int] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
     fault: str | None = None
@@ -105,7 +106,7 @@ class Controller:
         self.on_program_stop = on_program_stop
         self.on_event = on_event
         self.limits = DriveLimits.from_config(config)
-        self.planner = planner  # plan_periods's signature; None = ipo.feed.planner.plan_periods
+        self.planner = planner  # plan_periods's signature; None = the machine file's planner (machine.planners)
         self.check_s = 0.0
 
     def check(self, path: str | Path) -> Program:
@@ -140,9 +141,10 @@ class Controller:
 
     def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
-        if self.planner is None:
-            from ipo.feed.planner import plan_periods
-            self.planner = plan_periods
+        plan = self.planner
+        if plan is None:
+            from machine.planners import planner_for
+            plan = planner_for(self.config, program, start_position(program))
         drive = self.make_drive(program)
         drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time
         deliver = player.play if player is not None else drive.receive
@@ -151,7 +153,7 @@ class Controller:
         stops: list[int] = []
         messages: list[str] = []
         state, fault = "completed", None
-        stream = self.planner(program.entities, self.config, method=self.method,
+        stream = plan(program.entities, self.config, method=self.method,
                               feed_override=self.feed_override, start_mm=start_position(program))
         if player is not None:
             from machine.realtime import prefetch
@@ -213,11 +215,13 @@ class Controller:
         st = drive.stats
         sim = drive.t_s
         lim = self.limits
-        # trapezoid mode steps the acceleration by design: its jerk is measured, not held to a limit
-        kinds = {"velocity": st.velocity_violations, "accel": st.accel_violations,
-                 "jerk": st.jerk_violations if lim.check_jerk else "not checked"}
-        checked = (f"{_axes(lim.max_velocity_mm_s)} mm/s; {_axes(lim.max_accel_mm_s2)} mm/s^2"
-                   + (f"; {_axes(lim.max_jerk_mm_s3)} mm/s^3" if lim.check_jerk else ""))
+        # trapezoid mode steps the acceleration by design: its periods over the jerk limit are
+        # counted and said to be unlimited, not added to the violations of the limits it holds
+        kinds = {"velocity": st.velocity_violations, "accel": st.accel_violations, "jerk": st.jerk_violations}
+        held = st.velocity_violations + st.accel_violations + (st.jerk_violations if lim.jerk_limited else 0)
+        checked = (f"{_axes(lim.max_velocity_mm_s)} mm/s; {_axes(lim.max_accel_mm_s2)} mm/s^2; "
+                   f"{_axes(lim.max_jerk_mm_s3)} mm/s^3" + ("" if lim.jerk_limited else
+                                                            " (jerk counted, not limited in trapezoid mode)"))
         return RunResult(
             file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
             cycle_time_s=sim, periods=st.periods,
@@ -227,11 +231,16 @@ class Controller:
             max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],
             max_axis_jerk_mm_s3=[round(float(v), 1) for v in st.max_jerk_mm_s3],
             accel_stencil_periods=self.limits.stencil_periods(),
-            limit_violations=sum(v for v in kinds.values() if isinstance(v, int)), limit_violations_by_kind=kinds,
+            limit_violations=held, limit_violations_by_kind=kinds,
             limits_checked=checked,
             max_chord_error_um=st.max_chord_error_mm * 1e3,
             max_contour_error_um=None if st.max_contour_error_mm is None else st.max_contour_error_mm * 1e3,
             deadline_misses=None if player is None else player.deadline_misses,
             realtime_factor=sim / (wall + self.check_s) if wall > 0 else math.inf,
             wall_s=wall, check_s=self.check_s,
-            program_stops=stops, messages=messages, fault=fault)
+            planner=self._planner_name(), program_stops=stops, messages=messages, fault=fault)
+
+    def _planner_name(self) -> str:
+        from machine.planners import describe
+
+        return describe(self.config) if self.planner is None else getattr(self.planner, "__name__", "custom")
