@@ -41,7 +41,7 @@ class Board:
     """One grbl 1.1 board: see the module docstring."""
 
     def __init__(self, settings, *, start_mm=(0.0, 0.0, 0.0), baud: float | None = None, feed_override: float = 1.0,
-                 reply_latency_s: float = 0.0):
+                 answer_s: float | None = None):
         self.settings = settings
         start_steps = [round(p * s) for p, s in zip(start_mm, settings.steps_per_mm)]
         self.planner = Planner(settings.steps_per_mm, settings.max_rate_mm_min,
@@ -50,7 +50,9 @@ class Board:
         self.planner.override = feed_override
         self.prep = Prep(self.planner)
         self.byte_s = 0.0 if baud is None else 10.0 / baud
-        self.reply_s = OK_BYTES * self.byte_s + reply_latency_s
+        # from grbl's `ok` to the sender's next byte: the answer's bytes on the wire (a simulator
+        # with no wire time on its answers gives its client's latency instead)
+        self.reply_s = OK_BYTES * self.byte_s if answer_s is None else answer_s
         self.position_mm = [f32(c) for c in start_mm]  # the parser's position (gc_state.position), floats
         self.idle_lock_s = settings.idle_lock_s
 

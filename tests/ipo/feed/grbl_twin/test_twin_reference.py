@@ -21,7 +21,7 @@ MEDIAN_HELD, WORST_HELD = 0.001, 0.01
 
 
 def _predicted(case) -> float:
-    first, last = motion_span(case.wire(), case.settings, baud=case.baud, reply_latency_s=SIM_CLIENT_S)
+    first, last = motion_span(case.wire(), case.settings, baud=case.baud, answer_s=SIM_CLIENT_S)
     return last - first
 
 
@@ -44,10 +44,10 @@ def test_speed_profile_matches_grbl_sim(case):
     the chord travelled in each window of profile_dt_s from each one's first motion, over dt."""
     dt = case.raw["profile_dt_s"]
     want = np.asarray(case.raw["profile_mm_s"])
-    first, _ = motion_span(case.wire(), case.settings, baud=case.baud, reply_latency_s=SIM_CLIENT_S)
+    first, _ = motion_span(case.wire(), case.settings, baud=case.baud, answer_s=SIM_CLIENT_S)
     cfg = dataclasses.replace(default_config(), grbl_settings=case.settings, grbl_baud=int(case.baud))
     pos = np.concatenate([b.pos_mm for b in plan_periods(case.entities(), cfg, wire=case.wire(),
-                                                         reply_latency_s=SIM_CLIENT_S) if hasattr(b, "pos_mm")])
+                                                         answer_s=SIM_CLIENT_S) if hasattr(b, "pos_mm")])
     t = cfg.period_s * np.arange(1, len(pos) + 1)
     grid = first + dt * np.arange(len(want) + 1)
     at = np.array([np.interp(grid, t, pos[:, k]) for k in range(3)]).T
