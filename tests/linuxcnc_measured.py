@@ -25,14 +25,15 @@ from ipo.feed.linuxcnc_twin.planner import plan_periods
 
 DATA = Path(__file__).resolve().parent / "data" / "linuxcnc_twin"
 REFERENCE_PROGRAMS = SHARED_DIR / "reference" / "linuxcnc-sim" / "programs"
-_SOURCES = {"reference": REFERENCE_PROGRAMS, "corpus": CORPUS_DIR, "own": DATA / "programs"}
+NCFILES = Path("/usr/share/linuxcnc/ncfiles")  # LinuxCNC's examples, installed with linuxcnc-uspace
+_SOURCES = {"reference": REFERENCE_PROGRAMS, "corpus": CORPUS_DIR, "ncfiles": NCFILES, "own": DATA / "programs"}
 
 
 @dataclass(frozen=True)
 class Measured:
     machine: str
     program: str
-    source: str  # reference (../shared/reference/linuxcnc-sim), corpus (../shared/corpus), own (DATA)
+    source: str  # reference (../shared/reference/linuxcnc-sim), corpus (../shared/corpus), ncfiles, own (DATA)
     cycle_time_s: float
     path_length_mm: float
     note: str
