@@ -23,6 +23,9 @@ machine stands).
   owns where the machine stands and the S-curve filter; reads the window.
 - `planner`: the look-ahead plan over the window and the loop between the owners;
   `plan_periods`, the stage's entry point.
+- `grbl_twin/`, `linuxcnc_twin/`: the controller twins (a grbl 1.1 board, LinuxCNC 2.9) behind
+  the same interface; `profiles`: the machine file's `planner` -> its plan_periods
+  (ipo.config.PLANNERS).
 
-May import: ipo.config, ipo.contracts, ipo.errors, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """
