@@ -3,7 +3,7 @@
 For every program of tests/data/linuxcnc_twin/measured.csv (LinuxCNC 2.9.0~pre1's own
 simulator, headless, on the machine of tests/data/linuxcnc_twin/ini/<machine>.ini; README.md
 there says how), the measured cycle time, the twin's prediction with the settings read from
-that INI file (ipo.feed.linuxcnc_twin.ini), its error, and the naive estimate a CAM system or
+that INI file (ipo.linuxcnc_ini), its error, and the naive estimate a CAM system or
 a sender prints: each move's length at its programmed feed (rapids at the rapid speed
 LinuxCNC would reach, [TRAJ]MAX_LINEAR_VELOCITY or the axis limits), dwells added, no
 acceleration. Programs from ../shared are skipped, saying so, where it is absent.
@@ -23,7 +23,7 @@ sys.path[:0] = [str(ROOT)]
 sys.path.append(str(ROOT / "tests"))  # after the repository: tests/ipo and tests/machine are folders of tests
 
 from linuxcnc_measured import measured, percent_error, twin_run  # noqa: E402
-from ipo.feed.linuxcnc_twin.ini import load_ini  # noqa: E402
+from ipo.linuxcnc_ini import load_ini  # noqa: E402
 from ipr.entities import Dwell, Rapid  # noqa: E402
 from machine.commands.parse import path_length_mm  # noqa: E402
 

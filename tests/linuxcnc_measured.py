@@ -20,7 +20,7 @@ import numpy as np
 from conftest import CORPUS_DIR, SHARED_DIR
 from ipo.config import default_config
 from ipo.contracts import LIMIT_DWELL, PeriodBatch
-from ipo.feed.linuxcnc_twin.ini import load_ini
+from ipo.linuxcnc_ini import load_ini
 from ipo.feed.linuxcnc_twin.planner import plan_periods
 
 DATA = Path(__file__).resolve().parent / "data" / "linuxcnc_twin"

@@ -21,7 +21,7 @@ from ipo.feed.linuxcnc_twin.segments import (TC_CIRCULAR, TC_LINEAR, TERM_EXACT,
                                              max_target_vel, remove_kink, set_circle, set_kink, set_line,
                                              set_term_cond, start_accel_unit, start_tangent, tangential_max_accel,
                                              clamp_by_length)
-from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings
+from ipo.linuxcnc_ini import LinuxcncSettings
 from ipo.feed.linuxcnc_twin.vec import Vec
 
 POS_EPSILON = 1e-12

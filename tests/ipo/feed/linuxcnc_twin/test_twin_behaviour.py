@@ -10,7 +10,7 @@ from ipo.config import default_config
 from ipo.contracts import LIMIT_DWELL, LIMIT_SEGMENT, PeriodBatch
 from ipo.errors import IpoError
 from ipo.feed.linuxcnc_twin.planner import plan_periods
-from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings
+from ipo.linuxcnc_ini import LinuxcncSettings
 from ipr.entities import Coolant, Message, Nurbs, ProgramEnd, Spindle
 
 S = LinuxcncSettings(servo_period_s=1e-3, axis_velocity_mm_s=(100.0, 100.0, 100.0),
