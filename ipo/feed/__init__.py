@@ -15,8 +15,11 @@ machine stands).
 - `sampling`: where along the path the limits are evaluated.
 - `limits`: caps on v^2 at the samples, each with its reason, 002's roughness limiter
   among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too).
+- `merge`: G64 Q, G1 runs within Q of one line joined before the pieces (LinuxCNC's rule).
 - `lookahead`: the phase-plane profile and its time parameterisation.
-- `scurve`: the jerk-limiting moving average of S-curve mode.
+- `scurve`: S-curve mode's window: jerk-limited segments committed and put out by period;
+  `jerk_plan` finds them (anchors, passes, checks), `jerk_profile` holds the double-S closed
+  forms.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
 - `emission`: a refined profile -> the period grid -> quantised positions -> `PeriodBatch`;
