@@ -10,7 +10,8 @@ Pipeline (`planner.FeedPlanner`, per look-ahead window):
 - `sampling`: where along the path the limits are evaluated.
 - `limits`: caps on v^2 at the samples, each with its reason, 002's roughness limiter
   among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too).
-- `lookahead`: the phase-plane profile and its time parameterisation.
+- `lookahead`: the phase-plane profile and its time parameterisation; `interval_lp`: the
+  two-variable programme of one interval that its backward pass solves per sample.
 - `scurve`: the jerk-limiting moving average of S-curve mode.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
