@@ -59,7 +59,7 @@ class DriveLimits:
     max_jerk_mm_s3: np.ndarray
     min_mm: np.ndarray
     max_mm: np.ndarray
-    check_jerk: bool = False  # only an S-curve stage promises bounded jerk
+    jerk_limited: bool = False  # only an S-curve stage holds the jerk; it is counted in every mode
 
     @classmethod
     def from_config(cls, config) -> "DriveLimits":
@@ -72,7 +72,7 @@ class DriveLimits:
             max_jerk_mm_s3=np.array([a.max_jerk_mm_s3 for a in axes], dtype=float),
             min_mm=np.array([a.min_mm for a in axes], dtype=float),
             max_mm=np.array([a.max_mm for a in axes], dtype=float),
-            check_jerk=getattr(config, "accel_mode", "trapezoid") == "scurve",
+            jerk_limited=getattr(config, "accel_mode", "trapezoid") == "scurve",
         )
 
     def stencil_periods(self) -> int:
@@ -132,7 +132,7 @@ def chord_errors_mm(p_mm):
 
 
 @njit(cache=True)
-def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, check_jerk, peak, counts):
+def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
     """One pass over the positions ext (BLU; the first `old` rows measured before).
 
     peak: [path length, velocity x3, acceleration x3, jerk x3, chord error] (updated);
@@ -158,7 +158,7 @@ def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, check_jerk, peak, cou
             if i >= 3 * h:
                 jerk = abs(ext[i, a] - 3 * ext[i - h, a] + 3 * ext[i - 2 * h, a] - ext[i - 3 * h, a]) * blu / ht**3
                 peak[7 + a] = max(peak[7 + a], jerk)
-                bad_j |= check_jerk and jerk > jlim[a] + j_tol + 1e-9
+                bad_j |= jerk > jlim[a] + j_tol + 1e-9
         peak[0] += math.sqrt(d2) * blu
         counts[0] += bad_v
         counts[1] += bad_a
@@ -198,7 +198,7 @@ class Drive:
         """Load the compiled kernels now (numba loads them on first call, which takes a second)."""
         lim = self.limits
         _measure(np.zeros((4, 3), np.int64), 4, 1, lim.blu_mm, lim.period_s, lim.max_velocity_mm_s,
-                 lim.max_accel_mm_s2, lim.max_jerk_mm_s3, False, np.zeros(11), np.zeros(3, np.int64))
+                 lim.max_accel_mm_s2, lim.max_jerk_mm_s3, np.zeros(11), np.zeros(3, np.int64))
         if self.servo is not None:
             ServoModel(1.0, 0.0, lim.period_s, (0, 0, 0)).follow(np.zeros((2, 3)))
 
@@ -257,7 +257,7 @@ class Drive:
         lim, h = self.limits, self._h
         ext = np.concatenate((self._tail, pos))
         _measure(ext, len(self._tail), h, lim.blu_mm, lim.period_s, lim.max_velocity_mm_s, lim.max_accel_mm_s2,
-                 lim.max_jerk_mm_s3, lim.check_jerk, self._peak, self._counts)
+                 lim.max_jerk_mm_s3, self._peak, self._counts)
         self._tail = ext[-max(3 * h, 2):].copy()
         st = self.stats
         st.path_length_mm = float(self._peak[0])

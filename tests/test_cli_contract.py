@@ -193,9 +193,19 @@ def test_stream_increments_dry_run_refuses_a_terminal(monkeypatch):
     assert result.exit_code == 2 and "redirect stdout" in text
 
 
-def test_trapezoid_mode_says_jerk_was_not_checked():
+def test_trapezoid_mode_counts_jerk_and_says_it_is_not_limited(tmp_path):
+    """Trapezoid mode steps the acceleration: the periods over the jerk limit are counted (the
+    drive's stencil of h periods, recomputed here from the trace) and kept out of the total."""
     import json
-    summary = json.loads(assert_clean(vcnc("run", DEMO, "--json"), {0}).strip().splitlines()[-1])
-    assert summary["limit_violations_by_kind"]["jerk"] == "not checked"
-    assert summary["limits_checked"] == "100 100 100 mm/s; 1000 1000 1000 mm/s^2"
+    trace = tmp_path / "demo.npz"
+    summary = json.loads(assert_clean(vcnc("run", DEMO, "--json", "--trace", trace), {0}).strip().splitlines()[-1])
+    assert summary["limits_checked"] == ("100 100 100 mm/s; 1000 1000 1000 mm/s^2; 100000 100000 100000 mm/s^3 "
+                                         "(jerk counted, not limited in trapezoid mode)")
+    h, blu, period = summary["accel_stencil_periods"], 1e-3, 1e-3
+    pos = np.load(trace)["pos_mm"]
+    pos = np.vstack([np.repeat(pos[:1], 3 * h, axis=0), pos])  # standing still before the start
+    jerk = np.abs(pos[3 * h:] - 3 * pos[2 * h:-h] + 3 * pos[h:-2 * h] - pos[:-3 * h]) / (h * period) ** 3
+    over = int(np.sum(np.any(jerk > 1e5 + 4 * blu / (h * period) ** 3 + 1e-9, axis=1)))
+    assert over > 0 and summary["limit_violations_by_kind"]["jerk"] == over
+    assert summary["limit_violations"] == 0
     assert np.max(summary["max_axis_jerk_mm_s3"]) > 1e5  # measured above the configured 1e5: not a violation

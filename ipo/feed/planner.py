@@ -33,6 +33,7 @@ from ipo.feed.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, j
                              lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
 from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
+from ipo.feed.merge import merge_collinear
 from ipo.feed.emission import PeriodOutput, centripetal_binds, period_reasons
 from ipo.feed.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
 from ipo.roughness import cusp_height_mm
@@ -115,7 +116,7 @@ class FeedPlanner:
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
         """Period batches and events in order; the machine ends standing still."""
         motions = self._motions  # kept as the same list object: cleared in place
-        for e in entities:
+        for e in merge_collinear(entities):  # G64 Q
             tp = type(e)
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
