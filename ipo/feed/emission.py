@@ -16,11 +16,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import numpy as np
+from numba import njit
 
 from ipo.config import MachineConfig
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
-from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
+from ipo.feed.analytic import evaluate
+from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
 from ipo.feed.scurve import MovingAverage
@@ -47,19 +49,25 @@ def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.
                     np.where(r1 & level, reason[k1], moving)).astype(np.int8)
 
 
-def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarray, a_max: np.ndarray,
-                      ascale: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def centripetal_binds(s, t, kv, x, a_max, ascale):
     """Per sample interval: at one of its ends some axis runs within 1 % of its limit with
     the constant s'' of the interval, and the centripetal share kv_i x is most of it."""
-    ds = np.diff(s)
-    sdd = np.divide(np.diff(x), 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
-    out = np.zeros(len(ds), bool)
-    for end, xe in ((slice(None, -1), x[:-1]), (slice(1, None), x[1:])):
-        cen = kv[end] * xe[:, None]
-        acc = t[end] * sdd[:, None] + cen
-        at_limit = np.abs(acc) >= 0.99 * ascale[:, None] * a_max[None, :]
-        out |= np.any(at_limit & (np.abs(cen) >= 0.5 * np.abs(acc)), axis=1)
-    return out & (ds > 0)
+    n = s.shape[0] - 1
+    out = np.zeros(n, np.bool_)
+    for k in range(n):
+        ds = s[k + 1] - s[k]
+        if not ds > 0:
+            continue
+        sdd = (x[k + 1] - x[k]) / (2.0 * ds)
+        for end in range(2):
+            xe = x[k + end]
+            for a in range(3):
+                cen = kv[k + end, a] * xe
+                acc = t[k + end, a] * sdd + cen
+                if abs(acc) >= 0.99 * ascale[k] * a_max[a] and abs(cen) >= 0.5 * abs(acc):
+                    out[k] = True
+    return out
 
 
 class PeriodOutput:
@@ -100,15 +108,16 @@ class PeriodOutput:
         on_edge = (loc > 0) & (sv <= pstart[loc] + 1e-12)
         loc = loc - on_edge
         sigma = np.clip(sv - pstart[loc], 0.0, pieces.length[loc])
-        pos = evaluate(pieces, loc, sigma)
+        pos = evaluate(pieces.geometry, loc, sigma)
         mask = pieces.kind[loc] == KIND_NURBS
         if mask.any():
             _nurbs_points(pos, loc, sv, s_prev, mask, pieces, pstart, nurbs)
         blend = np.nonzero(pieces.kind[loc] == KIND_BLEND)[0]
-        for p in np.unique(loc[blend]):
-            at = blend[loc[blend] == p]
-            drv = nurbs[int(pieces.nurbs[p])]
-            pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
+        if len(blend):  # loc does not decrease: each blend's periods are one run
+            for at in np.split(blend, np.nonzero(np.diff(loc[blend]))[0] + 1):
+                p = loc[at[0]]
+                drv = nurbs[int(pieces.nurbs[p])]
+                pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
         feed = np.diff(sv, prepend=s_prev) / self.T
         line = pieces.line[loc]
         inc, end = quantise(pos, self.blu_mm, self.blu)
