@@ -41,7 +41,8 @@ LIMIT_CHORD = 3  # chord error within the tolerance delta
 LIMIT_ROUGHNESS = 4  # 002's surface-roughness limiter
 LIMIT_ACCEL = 5  # accelerating or braking (look-ahead)
 LIMIT_DWELL = 6  # standing still: dwell, stop, or start
-LIMIT_NAMES = ("programmed", "axis", "curvature", "chord", "roughness", "accel", "dwell")
+LIMIT_SEGMENT = 7  # a controller that finishes at most one segment per period (LinuxCNC): length / T
+LIMIT_NAMES = ("programmed", "axis", "curvature", "chord", "roughness", "accel", "dwell", "segment rate")
 
 
 @dataclass(slots=True)

@@ -43,14 +43,18 @@ def set_file(entity, file: str) -> None:
 
 @dataclass(frozen=True, slots=True)
 class PathControl:
-    """G61 exact stop, or G64 continuous with optional P blend and Q merge tolerances."""
+    """G61/G61.1 exact stop, or G64 continuous with optional P blend and Q merge tolerances.
+    `exact_path` tells G61 (LinuxCNC's exact path: its planner may still run through joints it
+    finds tangent) from G61.1 (exact stop at every joint)."""
 
     exact_stop: bool = False
     blend_tol_mm: float | None = None
     merge_tol_mm: float | None = None
+    exact_path: bool = False
 
 
 EXACT_STOP = PathControl(exact_stop=True)
+EXACT_PATH = PathControl(exact_stop=True, exact_path=True)
 CONTINUOUS = PathControl()
 
 

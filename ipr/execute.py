@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ipr import cutter_comp, cycles, modes, nurbs_blocks, offsets, splines
+from ipr import cutter_comp, cycles, gcodes, modes, nurbs_blocks, offsets, splines
 from ipr.arcs import make_arc
 from ipr.block import AXES, CYCLES, BlockSpec
-from ipr.entities import (EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
+from ipr.entities import (EXACT_PATH, EXACT_STOP, PLANE_AXES, Coolant, Dwell, Line, PathControl, ProgramEnd, Rapid,
                           Spindle, Stop, ToolChange)
 from ipr.dialect import allows_zero_normal_offset, dwell_seconds
 from ipr.errors import BlockError
@@ -138,9 +138,11 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
     if "coord" in g:
         offsets.select_coord(st, setup, g["coord"])
     path = g.get("path")
-    if path in (610, 611):
+    if path == gcodes.EXACT_PATH:
+        st.path = EXACT_PATH
+    elif path == gcodes.EXACT_STOP:
         st.path = EXACT_STOP
-    elif path == 640:
+    elif path == gcodes.BLEND:
         tol = [None, None]
         for j, letter in enumerate("PQ"):
             if letter in idx:

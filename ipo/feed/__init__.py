@@ -1,6 +1,11 @@
 """The feed stage: motion entities -> one arc-length path -> planned feed -> period batches.
 
-Pipeline (`planner.FeedPlanner`, per look-ahead window):
+Pipeline (`planner.FeedPlanner`, per look-ahead window), three owners with the planner
+as the loop between them: the intake (motions read -> pieces), the window (pieces,
+samples and caps, events) and the output side (`emission`: the period grid, where the
+machine stands).
+- `intake`: motions read but not yet built (each NURBS as its parts, with its driver),
+  built into pieces and handed on with their drivers; where an event read now happens.
 - `split`: a NURBS with C0 corners inside it, as its parts (and the check that refuses a
   curve the planner cannot follow).
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
@@ -18,8 +23,10 @@ Pipeline (`planner.FeedPlanner`, per look-ahead window):
 - `scurve`: the jerk-limiting moving average of S-curve mode.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
-- `emission`: planned arc lengths -> quantised positions -> `PeriodBatch`; reads the window.
-- `planner`: `plan_periods`, the stage's entry point.
+- `emission`: a refined profile -> the period grid -> quantised positions -> `PeriodBatch`;
+  owns where the machine stands and the S-curve filter; reads the window.
+- `planner`: the look-ahead plan over the window and the loop between the owners;
+  `plan_periods`, the stage's entry point.
 
 May import: ipo.config, ipo.contracts, ipo.errors, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

@@ -1,10 +1,10 @@
-"""The NURBS drivers one build of pieces makes or trims, kept apart from the window's own.
+"""The NURBS drivers one build of pieces makes or trims, kept apart from the intake's own.
 
 ipo.feed.pieces.build reads the drivers of the curves it joins (their arc-length tables)
 and, at G64 corners, trims a curve (its driver replaced by the one of the remaining part,
 or dropped when nothing is left) or adds a blend curve with a new driver. It records all
-of that here, over a read-only view of the window's drivers; the planner then applies the
-changes to its window (ipo.feed.window.Window.apply).
+of that here, over a read-only view of the drivers the intake holds (ipo.feed.intake);
+the intake then hands the drivers of the built pieces to the window with them.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping
 
 
 class DriverChanges:
-    """A mapping NURBS index -> driver: the window's drivers with this build's changes on top."""
+    """A mapping NURBS index -> driver: the intake's drivers with this build's changes on top."""
 
     def __init__(self, drivers: Mapping, next_index: int, make_driver: Callable):
         self._base = drivers

@@ -1,19 +1,23 @@
-"""The feed stage's output side: planned arc lengths of consecutive periods -> PeriodBatch.
+"""The feed stage's output side: a planned profile -> periods on the grid -> PeriodBatch.
 
-The look-ahead planner (ipo.feed.planner) decides where along the path each period ends; this
-module turns those arc lengths into machine positions (lines, arcs and blends evaluated
-exactly by arc length, a NURBS walked by its stepper), quantises them to BLU increments
+The planner (ipo.feed.planner) plans v^2 over the window's samples and refines it
+(ipo.feed.lookahead.refine) into a `Profile`; this module puts it on the period grid
+(where along the path each period ends, lookahead.sample_times and positions_at), turns
+those arc lengths into machine positions (lines, arcs and blends evaluated exactly by arc
+length, a NURBS walked by its stepper), quantises them to BLU increments
 (ipo.interp.reference_word.quantise), passes them through the S-curve filter in that mode
 (ipo.feed.scurve) and cuts the batches where events sit.
 
 It owns the state that belongs to the machine rather than to the plan: where the machine
-stands (in mm and in BLU) and the S-curve filter with the arc length it has put out. It
-reads the planner's window (ipo.feed.window: pieces, where they start, their NURBS
-drivers, pending events) on each call and changes nothing in it.
+stands (in mm and in BLU), the S-curve filter with the arc length it has put out, and
+the period grid's phase. It reads the planner's window (ipo.feed.window: pieces, where
+they start, their NURBS drivers, pending events) and changes nothing in it: it hands back
+where it stopped and how many events it put out.
 """
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -21,6 +25,7 @@ from numba import njit
 from ipo.config import MachineConfig
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
+from ipo.feed.lookahead import positions_at, sample_times
 from ipo.feed.analytic import evaluate
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces
 from ipo.feed.window import Window
@@ -70,8 +75,20 @@ def centripetal_binds(s, t, kv, x, a_max, ascale):
     return out
 
 
+class Profile(NamedTuple):
+    """The plan over the window's samples 0..c, refined: arc length s and v^2 at the refined
+    points, the sample each lies after (src), the limit reason of each refined interval,
+    and the samples' own arc lengths (where a replan may start)."""
+
+    s: np.ndarray
+    v2: np.ndarray
+    src: np.ndarray
+    reason: np.ndarray
+    s_samples: np.ndarray
+
+
 class PeriodOutput:
-    """Machine position and S-curve filter state; see the module docstring."""
+    """Machine position, S-curve filter and period grid state; see the module docstring."""
 
     def __init__(self, config: MachineConfig, fir: MovingAverage | None, *, start_mm, batch_periods: int):
         self.T = config.period_s
@@ -81,14 +98,62 @@ class PeriodOutput:
         self.pos = np.array(start_mm, dtype=float)
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
         self.s_out = 0.0  # arc length of the last period sent (S-curve filter output)
+        self._phase = self.T  # time from the first held sample to the next period end
+        self._s_last = 0.0  # planned arc length at the end of the last period
 
-    def periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, *, flush: bool):
+    def emit(self, prof: Profile, window: Window, *, stop: bool, replan: Callable[[], bool]):
+        """Periods along the profile up to its last sample, where the machine stops if
+        `stop`. When `replan()` turns true (a feed override changed) it finishes the current
+        sample interval and ends there. The generator returns (k, n): the sample it ended on
+        (the next plan starts there) and how many of the window's events it put out."""
+        s, xs, src, seg_reason = prof.s, prof.v2, prof.src, prof.reason
+        c = len(prof.s_samples) - 1
+        tc = sample_times(s, xs)
+        t_next, s_prev, k_stop, used = self._phase, self._s_last, c, 0
+        while True:
+            fit = int(np.floor((tc[-1] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[-1] + 1e-12 else 0
+            n = min(fit, self.batch_periods)
+            times = t_next + self.T * np.arange(n)
+            last = times[-1] if n else t_next - self.T
+            exact_stop = stop and n == fit and tc[-1] - last > 1e-12
+            if exact_stop:
+                times = np.append(times, tc[-1])  # the stop is reached exactly at a period's end
+            if len(times) == 0:
+                break
+            sv, kseg = positions_at(np.minimum(times, tc[-1]), s, xs, tc)
+            if exact_stop:
+                sv[-1] = s[-1]
+            used = yield from self._periods(sv, s_prev, seg_reason[kseg], window, used, flush=stop and n == fit)
+            s_prev = self._s_last = float(sv[-1])
+            t_next = times[-1] + self.T
+            if n == fit:
+                break
+            if replan():
+                # finish the current sample interval on the old plan, then replan from there
+                k_stop = min(int(src[kseg[-1]]) + 1, c)
+                r_stop = int(np.searchsorted(s, prof.s_samples[k_stop], side="left"))
+                t_stop = tc[r_stop]
+                more = int(np.floor((t_stop - t_next) / self.T + 1e-9)) + 1 if t_next <= t_stop else 0
+                if more:
+                    times = t_next + self.T * np.arange(more)
+                    sv, kseg = positions_at(times, s, xs, tc)
+                    used = yield from self._periods(sv, s_prev, seg_reason[kseg], window, used, flush=False)
+                    s_prev = self._s_last = float(sv[-1])
+                    t_next = times[-1] + self.T
+                break
+        self._phase = t_next - (tc[r_stop] if k_stop < c else tc[len(s) - 1])
+        if stop and k_stop == c:
+            self._phase = self.T
+        return k_stop, used
+
+    def _periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, used: int, *,
+                 flush: bool):
         """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
-        filter in that mode; `flush` runs the filter out at a stop. The window's events due
-        by the end are yielded in place; the generator returns how many (the window's owner
-        drops them: this side only reads the window)."""
+        filter in that mode; `flush` runs the filter out at a stop. The window's events from
+        index `used` on that are due by the end are yielded in place; the generator returns
+        the index after the last one put out."""
         if self.fir is None:
-            return (yield from self._batch(sv, s_prev, limit, window))
+            return (yield from self._batch(sv, s_prev, limit, window, used))
         smooth = self.fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
         if flush:
             limit = np.concatenate([limit, np.full(self.fir.m - 1, LIMIT_ACCEL, np.int8)])
@@ -97,11 +162,11 @@ class PeriodOutput:
             s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
         prev = self.s_out
         self.s_out = float(s_f[-1])
-        return (yield from self._batch(s_f, prev, limit, window))
+        return (yield from self._batch(s_f, prev, limit, window, used))
 
-    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window):
-        """Points at arc lengths sv, quantised; split where events sit. Returns the number
-        of the window's events put out."""
+    def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, used: int):
+        """Points at arc lengths sv, quantised; split where events sit (the window's from
+        index `used` on). Returns the index after the last event put out."""
         pieces, pstart, nurbs, events = window.pieces, window.pstart, window.drivers, window.events
         loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
         # a period ending exactly on a piece boundary belongs to the piece it completes
@@ -124,7 +189,7 @@ class PeriodOutput:
         qpos = (self.blu + np.cumsum(inc, axis=0)) * self.blu_mm
         self.blu = end
         self.pos = pos[-1].copy()
-        cut = used = 0
+        cut = 0
         while used < len(events) and events[used][0] <= sv[-1] + 1e-9:
             s_ev, ev = events[used]
             used += 1

@@ -1,10 +1,12 @@
 """The feed stage: entities in, per-period axis increments out.
 
-Pipeline per window of entities: pieces (ipo.feed.pieces: lines, arcs, G64 corner blends,
-NURBS) -> samples (ipo.feed.sampling) -> caps on v^2 from every limit (ipo.feed.limits, 002's
-roughness limiter included) -> look-ahead profile (ipo.feed.lookahead) -> time
-parameterisation at the interpolation period -> points and BLU increments of each
-period (ipo.feed.emission; a NURBS walked by its stepper with the target step v*T).
+Pipeline per window of entities: the intake holds the motions read and builds them into
+pieces (ipo.feed.intake, ipo.feed.pieces: lines, arcs, G64 corner blends, NURBS) -> the
+window samples and caps them (ipo.feed.window, ipo.feed.sampling, ipo.feed.limits with
+002's roughness limiter) -> this module plans the look-ahead profile over the window
+(ipo.feed.lookahead) -> the output side puts it on the period grid and turns it into
+points and BLU increments (ipo.feed.emission; a NURBS walked by its stepper with the
+target step v*T).
 
 Bounded memory: the planner holds a window that reaches one stopping distance beyond
 what it commits, and it emits the committed part chunk by chunk.
@@ -24,6 +26,7 @@ if the new feed is lower), taking effect within one sample interval (<= 2 mm of 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+from functools import partial
 
 import numpy as np
 
@@ -33,23 +36,19 @@ from ipo.feed.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, j
                              lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
 from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
+from ipo.feed.emission import PeriodOutput, Profile, centripetal_binds, period_reasons
+from ipo.feed.intake import CornerRules, Intake
 from ipo.feed.merge import merge_collinear
-from ipo.feed.emission import PeriodOutput, centripetal_binds, period_reasons
-from ipo.feed.pieces import KIND_ANALYTIC, Motion, Pieces, build, motion_length
 from ipo.roughness import cusp_height_mm
-from ipo.feed.nurbs_driver import NurbsDriver
-from ipo.feed.split import corner_parts
 from ipo.feed.window import Window
-from ipo.feed.sampling import Samples, nurbs_table, sample
 from ipo.feed.scurve import MovingAverage
-from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, Nurbs, ProgramEnd, Rapid,
-                          Spindle, Stop, ToolChange)
+from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, ProgramEnd, Rapid, Spindle,
+                          Stop, ToolChange)
 
 # Plan with a sliver of headroom below the machine limits: the profile is linear in v^2
 # between samples and is checked at the samples only.
 ACCEL_USE = 0.985
 VELOCITY_USE = 0.995
-_BUILD_CHUNK = 2048  # motions turned into pieces per call
 _START_TOL_MM = 1e-6
 _STANDSTILL_X = 1e-12  # v^2 below this (v < 1 um/s) counts as standing still
 
@@ -62,10 +61,16 @@ def nurbs_end_gap_mm(config: MachineConfig) -> float:
     return 2 * v_top * config.period_s
 
 class FeedPlanner:
-    """Streaming look-ahead planner; see the module docstring."""
+    """Streaming look-ahead planner; see the module docstring.
+
+    The thin loop between the feed stage's three owners: the intake (ipo.feed.intake:
+    motions read, built into pieces), the window (ipo.feed.window: pieces, samples, caps
+    and events between intake and emission) and the output side (ipo.feed.emission: the
+    period grid, where the machine stands). It plans v^2 over the window and hands each
+    result to the one that owns what comes next."""
 
     def __init__(self, config: MachineConfig, *, method: str | None = None, feed_override: float = 1.0,
-                 start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096):
+                 start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096, corners: CornerRules | None = None):
         if not batch_periods >= 1:
             raise ValueError(f"batch_periods must be >= 1, got {batch_periods}")
         self.cfg = config
@@ -77,11 +82,6 @@ class FeedPlanner:
         self.T = config.period_s
         self.v_max = np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE
         self.a_max = np.array([a.max_accel_mm_s2 for a in config.axes]) * ACCEL_USE
-        self._motions: list[tuple] = []  # intake: pending (entity, rpm, nurbs index), as Motion
-        self._trim = 0.0  # how much of the held-back motion's start its corner blend took
-        self._win = Window()  # the look-ahead window (where the machine stands is self._output's)
-        self._phase = self.T  # time from the first held sample to the next period end
-        self._s_last = 0.0  # planned arc length at the end of the last period
         self._fir = None
         self._j_max = None
         if config.accel_mode == "scurve":
@@ -95,15 +95,18 @@ class FeedPlanner:
             # spreads it over 2 A / J seconds, a jerk of J / 2
             self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
                                                  np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
-        # the corner settings pieces.build takes (S-curve mode: arcs no tighter than this; the
-        # curvature-continuous corners' limits), public so that a study can force arcs
-        self.min_blend_radius_mm = min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T)
-        self.g2_limits = g2_blend_limits(self._fir, self.a_max, self._j_max, self.T)
+        # the corner settings of S-curve mode (arcs no tighter than this; the
+        # curvature-continuous corners' limits); a study may pass its own to force arcs
+        self.corners = corners or CornerRules(min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T),
+                                              g2_blend_limits(self._fir, self.a_max, self._j_max, self.T))
+        end_gap_mm = nurbs_end_gap_mm(config)
+        self._intake = Intake(method=self.method, end_gap_mm=end_gap_mm, blend_default_mm=config.g64_blend_tol_mm,
+                              rapid_mm_s=config.rapid_mm_s, corners=self.corners)
+        self._win = Window(partial(sample_caps, v_max=self.v_max, a_max=self.a_max, period_s=self.T,
+                                   delta_mm=config.chord_tol_mm, finishing=_finishing_params(config),
+                                   j_max=self._j_max), end_gap_mm)
         # the output side runs the filter; the planner reads only its span (fir.m)
         self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
-        self._rpm = 0.0
-        self._finishing = _finishing_params(config)
-        self._end_gap_mm = nurbs_end_gap_mm(config)
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -115,30 +118,31 @@ class FeedPlanner:
     # ---- entity intake -------------------------------------------------------------
     def run(self, entities: Iterable) -> Iterator[PeriodBatch | object]:
         """Period batches and events in order; the machine ends standing still."""
-        motions = self._motions  # kept as the same list object: cleared in place
+        intake, win = self._intake, self._win
         for e in merge_collinear(entities):  # G64 Q
             tp = type(e)
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
                     continue  # a move to where the machine stands: no motion, no corner
-                if not motions and self._win.samples is None:
+                if not intake.pending and win.samples is None:
                     self._check_start(e)
-                motions.append((e, self._rpm, -1))
-                if len(motions) > _BUILD_CHUNK:
-                    self._build(final=False)
+                if intake.add_line(e):
+                    self._extend(final=False)
                     yield from self._plan(final=False)
             elif isinstance(e, MOTION_TYPES):
-                self._take_motion(e)
-                if len(self._motions) > _BUILD_CHUNK:
-                    self._build(final=False)
+                if not intake.pending and win.samples is None:
+                    self._check_start(e)
+                if intake.add(e):
+                    self._extend(final=False)
                     yield from self._plan(final=False)
             elif isinstance(e, (Spindle, Coolant, Message, Auxiliary)):
-                if self._win.samples is None and not self._motions:
+                if win.samples is None and not intake.pending:
                     yield e  # standing still: nothing to wait for
                 else:
-                    self._build_pending_event(e)
+                    self._extend(final=False)
+                    win.add_event(intake.event_at_mm(win.s_end_mm), e)
                 if isinstance(e, Spindle):
-                    self._rpm = e.rpm if e.direction is not None else 0.0
+                    intake.spindle(e)
             elif isinstance(e, Dwell):
                 yield from self._flush()
                 yield from self._output.stand(e.seconds, e.line)
@@ -157,71 +161,28 @@ class FeedPlanner:
             raise IpoError(START, f"motion starts at {list(e.start)} but the machine stands at {pos.tolist()}",
                            e.line)
 
-    def _take_motion(self, e) -> None:
-        """Arcs and NURBS, a NURBS as its parts between its corners (lines take the lean path in run)."""
-        if self._win.samples is None and not self._motions:
-            self._check_start(e)
-        for m in corner_parts(e) if isinstance(e, Nurbs) else (e,):
-            idx = self._win.add_driver(self._driver(m)) if isinstance(m, Nurbs) else -1
-            self._motions.append(Motion(m, self._rpm, idx))
-
-    def _driver(self, e: Nurbs) -> NurbsDriver:
-        return NurbsDriver(e, nurbs_table(e, end_gap_mm=self._end_gap_mm), self.method)
-
-    def _build_pending_event(self, e) -> None:
-        """An event happens where the motions read so far end: at the end of the held-back
-        motion (its end corner is not known yet, so the point is its programmed end)."""
-        s_ev = self._win.s_end_mm
-        if self._motions:
-            self._build(final=False)
-            s_ev = self._win.s_end_mm + motion_length(self._motions[0], self._win.drivers) - self._trim
-        self._win.events.append((s_ev, e))
+    def _extend(self, *, final: bool) -> None:
+        """What the intake can build now, into the window."""
+        new = self._intake.build(final=final)
+        if new is not None:
+            self._win.extend(new.pieces, new.drivers)
 
     def _flush(self) -> Iterator:
-        if self._motions:
-            self._build(final=True)
+        self._extend(final=True)
         if self._win.samples is not None:
             yield from self._plan(final=True)
-        for _, ev in self._win.events:
-            yield ev
-        self._win.events.clear()
-
-    # ---- pieces and samples ----------------------------------------------------------
-    def _build(self, *, final: bool) -> None:
-        """Turn the pending motions into pieces and samples (all but the last unless final)."""
-        motions, win = self._motions, self._win
-        if len(motions) < 2 and not final:
-            return
-        built = build(motions, final=final, lead_trim_mm=self._trim, blend_default_mm=self.cfg.g64_blend_tol_mm,
-                      rapid_mm_s=self.cfg.rapid_mm_s, drivers=win.drivers, next_index=win.n_drivers,
-                      make_driver=self._driver, min_blend_radius_mm=self.min_blend_radius_mm,
-                      g2_limits=self.g2_limits)
-        win.apply(built.drivers.changed, built.drivers.added)
-        if final:
-            motions.clear()
-            # the last motion was built whole: nothing is held back, so no corner of it
-            # reaches into the next motion (a stale trim cut the start off the first move
-            # after a dwell or a stop that followed an event)
-            self._trim = 0.0
-        else:
-            del motions[:-1]
-            self._trim = built.trim_mm
-        pc = built.pieces
-        if len(pc) == 0:
-            return
-        tables = {int(i): win.drivers[int(i)].table for i in pc.nurbs[pc.kind != KIND_ANALYTIC]}
-        win.append(pc, sample(pc, win.s_end_mm, tables, end_gap_mm=self._end_gap_mm), self._caps)
-
-    def _caps(self, rel: Samples, pc: Pieces):
-        return sample_caps(rel, pc, self.v_max, self.a_max, self.T, self.cfg.chord_tol_mm, self._finishing,
-                           self._j_max)
+        yield from self._win.pop_events()
 
     # ---- look-ahead and emission -----------------------------------------------------
+    def _feed_v2(self, n: int) -> np.ndarray:
+        """Programmed v^2 at the first n samples, with the feed override (not on rapids)."""
+        win = self._win
+        loc = win.samples.piece[:n] - win.piece_base
+        return (win.pieces.feed_mm_s[loc] * np.where(win.pieces.rapid[loc], 1.0, self._override))**2
+
     def _soft_caps(self) -> tuple[np.ndarray, np.ndarray]:
         win = self._win
-        loc = win.samples.piece - win.piece_base
-        feed = win.pieces.feed_mm_s[loc] * np.where(win.pieces.rapid[loc], 1.0, self._override)
-        xf = feed**2
+        xf = self._feed_v2(len(win.samples))
         hard = win.cap
         if self._fir is not None:
             hard = low_caps_to_stops(hard, win.samples.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
@@ -274,62 +235,21 @@ class FeedPlanner:
         return scale
 
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
-        """Emit periods over samples 0..c, then drop them (keeping c as the new start)."""
+        """The plan x over samples 0..c, refined, to the output side; then drop what it put
+        out (the sample it ended on is the new start)."""
         smp = self._win.samples
         ascale = self._ascale(c + 1, cap)
-        loc = smp.piece[:c + 1] - self._win.piece_base
-        feed = self._win.pieces.feed_mm_s[loc] * np.where(self._win.pieces.rapid[loc], 1.0, self._override)
-        plateau = np.minimum(feed**2, axis_velocity_cap(smp.t[:c + 1], self.v_max))
+        plateau = np.minimum(self._feed_v2(c + 1), axis_velocity_cap(smp.t[:c + 1], self.v_max))
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
         cen = centripetal_binds(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], self.a_max, ascale)
-        seg_reason = period_reasons(xs, src, cap, reason, cen, LIMIT_CURVATURE)
-        tc = la.sample_times(s, xs)
-        c_ref = len(s) - 1
-        t_next = self._phase
-        s_prev = self._s_last
-        k_stop = c
-        while True:
-            fit = int(np.floor((tc[-1] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[-1] + 1e-12 else 0
-            n = min(fit, self.batch_periods)
-            times = t_next + self.T * np.arange(n)
-            last = times[-1] if n else t_next - self.T
-            exact_stop = stop and n == fit and tc[-1] - last > 1e-12
-            if exact_stop:
-                times = np.append(times, tc[-1])  # the stop is reached exactly at a period's end
-            if len(times) == 0:
-                break
-            sv, kseg = la.positions_at(np.minimum(times, tc[-1]), s, xs, tc)
-            if exact_stop:
-                sv[-1] = s[-1]
-            yield from self._out(sv, s_prev, seg_reason[kseg], flush=stop and n == fit)
-            s_prev = self._s_last = float(sv[-1])
-            t_next = times[-1] + self.T
-            if n == fit:
-                break
-            if self._override_changed:
-                # finish the current sample interval on the old plan, then replan from there
-                k_stop = min(int(src[kseg[-1]]) + 1, c)
-                r_stop = int(np.searchsorted(s, smp.s[k_stop], side="left"))
-                t_stop = tc[r_stop]
-                more = int(np.floor((t_stop - t_next) / self.T + 1e-9)) + 1 if t_next <= t_stop else 0
-                if more:
-                    times = t_next + self.T * np.arange(more)
-                    sv, kseg = la.positions_at(times, s, xs, tc)
-                    yield from self._out(sv, s_prev, seg_reason[kseg], flush=False)
-                    s_prev = self._s_last = float(sv[-1])
-                    t_next = times[-1] + self.T
-                break
-        self._phase = t_next - (tc[r_stop] if k_stop < c else tc[c_ref])
+        prof = Profile(s, xs, src, period_reasons(xs, src, cap, reason, cen, LIMIT_CURVATURE), smp.s[:c + 1])
+        k_stop, used = yield from self._output.emit(prof, self._win, stop=stop,
+                                                    replan=lambda: self._override_changed)
+        self._win.take_events(used)
         self._win.x0_v2 = float(x[k_stop])
         self._win.drop(k_stop, None if self._fir is None else self._output.s_out)
-        if stop and k_stop == c:
-            self._phase = self.T
 
-    def _out(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, *, flush: bool) -> Iterator:
-        """Periods to the output side, which reads the window as it stands now."""
-        used = yield from self._output.periods(sv, s_prev, limit, self._win, flush=flush)
-        self._win.take_events(used)
 
 def _finishing_params(cfg: MachineConfig):
     fin = cfg.finishing

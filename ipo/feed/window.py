@@ -3,9 +3,11 @@
 The window holds the path pieces built so far and where each starts, the NURBS drivers
 those pieces walk, the samples with their caps on v^2 (and reasons, and corner flags), and
 the events waiting for the machine to reach their place on the path. The planner
-(ipo.feed.planner) owns one window: it appends pieces, applies the drivers a build made
-(ipo.feed.pieces.build returns them), and drops what has been emitted. The output side
-(ipo.feed.emission) only reads it.
+(ipo.feed.planner) owns one window: it extends it with the pieces and drivers the intake
+(ipo.feed.intake) built, which the window samples (ipo.feed.sampling) and caps (a pure
+function of the samples and pieces, ipo.feed.limits.sample_caps with the machine's
+limits), places the events the intake placed, and drops what has been emitted. The
+output side (ipo.feed.emission) only reads it.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ import numpy as np
 
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.pieces import Pieces
-from ipo.feed.sampling import Samples
+from ipo.feed.sampling import Samples, sample
 
 Caps = Callable[[Samples, Pieces], tuple[np.ndarray, np.ndarray, np.ndarray]]
 
@@ -23,7 +25,9 @@ Caps = Callable[[Samples, Pieces], tuple[np.ndarray, np.ndarray, np.ndarray]]
 class Window:
     """Pieces, drivers, samples with caps, and pending events between intake and emission."""
 
-    def __init__(self):
+    def __init__(self, caps: Caps, end_gap_mm: float):
+        self._caps = caps  # (samples, pieces) -> cap, reason, corner
+        self._end_gap_mm = end_gap_mm  # the NURBS tables' end gap (ipo.feed.sampling.nurbs_table)
         self.pieces: Pieces | None = None
         self.piece_base = 0  # global index of pieces[0]
         self.pstart = np.zeros(0)  # global arc length where each held piece starts
@@ -34,26 +38,18 @@ class Window:
         self.x0_v2 = 0.0  # v^2 at the first held sample
         self.s_end_mm = 0.0  # arc length at the end of everything built
         self.drivers: dict[int, NurbsDriver] = {}  # NURBS index -> driver
-        self.n_drivers = 0  # NURBS indices handed out so far
         self.events: list[tuple[float, object]] = []  # (arc length, event), in path order
 
-    def add_driver(self, driver: NurbsDriver) -> int:
-        idx = self.n_drivers
-        self.n_drivers += 1
-        self.drivers[idx] = driver
-        return idx
+    def extend(self, pc: Pieces, drivers: dict[int, NurbsDriver]) -> None:
+        """New pieces after those held, with the drivers of the NURBS indices they walk,
+        sampled and capped."""
+        self.drivers.update(drivers)
+        if len(pc) == 0:
+            return
+        tables = {k: drv.table for k, drv in drivers.items()}
+        self._append(pc, sample(pc, self.s_end_mm, tables, end_gap_mm=self._end_gap_mm))
 
-    def apply(self, changes: dict[int, NurbsDriver | None], n_new: int) -> None:
-        """A build's drivers: new blends (indices n_drivers..n_drivers + n_new - 1), trimmed
-        curves (replaced) and curves trimmed away (None: dropped)."""
-        for k, drv in changes.items():
-            if drv is None:
-                self.drivers.pop(k, None)
-            else:
-                self.drivers[k] = drv
-        self.n_drivers += n_new
-
-    def append(self, pc: Pieces, smp: Samples, caps: Caps) -> None:
+    def _append(self, pc: Pieces, smp: Samples) -> None:
         """New pieces and their samples (global piece indices from 0 within pc), capped."""
         if self.pieces is None:
             base = self.piece_base
@@ -68,13 +64,13 @@ class Window:
         local = self.pieces
         if self.samples is None:
             self.samples = smp
-            self.cap, self.reason, self.corner = caps(self._relative(smp), local)
+            self.cap, self.reason, self.corner = self._caps(self._relative(smp), local)
         else:
             # the last two held samples are capped again: a corner where the windows join
             # also caps the sample before it (limits.CORNER_SHARE)
             j = min(2, len(self.samples))
             joined = Samples.concat([self.samples.tail(len(self.samples) - j), smp])
-            cap, reason, corner = caps(self._relative(joined), local)
+            cap, reason, corner = self._caps(self._relative(joined), local)
             lower = cap[:j] < self.cap[-j:]
             self.cap[-j:] = np.where(lower, cap[:j], self.cap[-j:])
             self.reason[-j:] = np.where(lower, reason[:j], self.reason[-j:])
@@ -87,9 +83,6 @@ class Window:
 
     def _relative(self, smp: Samples) -> Samples:
         return Samples(smp.s, smp.t, smp.kv, smp.piece - self.piece_base, smp.sigma)
-
-    def local(self, global_piece: np.ndarray) -> np.ndarray:
-        return global_piece - self.piece_base
 
     def drop(self, k: int, s_out_mm: float | None) -> None:
         """Forget samples before k and the pieces no sample refers to any more; with
@@ -117,6 +110,16 @@ class Window:
         self.cap, self.reason, self.corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
         self.x0_v2 = 0.0
 
+    def add_event(self, s_mm: float, event) -> None:
+        """An event that happens where the machine reaches arc length s_mm (after those held)."""
+        self.events.append((s_mm, event))
+
     def take_events(self, n: int) -> None:
         """The first n events have been put out."""
         del self.events[:n]
+
+    def pop_events(self) -> list:
+        """All events held, in path order, now put out (at a stop, everything emitted)."""
+        out = [ev for _, ev in self.events]
+        self.events.clear()
+        return out

@@ -18,7 +18,7 @@ from machine.report.envelope import Envelope, EnvelopeData
 from machine.report.page import Blob, write_page
 
 SURFACE_NODES = 300  # per side of the workpiece's height map in the page: 90 000 nodes, ~0.4 MB
-LIMIT_COLOURS = ("#66bb6a", "#42a5f5", "#ffa726", "#ec407a", "#7e57c2", "#fdd835", "#9e9e9e")
+LIMIT_COLOURS = ("#66bb6a", "#42a5f5", "#ffa726", "#ec407a", "#7e57c2", "#fdd835", "#9e9e9e", "#8d6e63")
 
 
 def _source_lines(path: str | Path, wanted: np.ndarray) -> tuple[np.ndarray, list[str]]:

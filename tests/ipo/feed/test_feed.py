@@ -413,7 +413,7 @@ def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_i
     assert str(info.value) == "line 3: motion starts at [1.0, 0.0, 0.0] but the machine stands at [0.0, 0.0, 0.0]"
 
 
-def test_a_builds_driver_changes_leave_the_windows_drivers_alone():
+def test_a_builds_driver_changes_leave_the_intakes_drivers_alone():
     from ipo.feed.driver_changes import DriverChanges
     base = {0: "curve 0", 1: "curve 1"}
     ch = DriverChanges(base, next_index=5, make_driver=lambda e: f"driver of {e}")

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
+from ipo.feed.intake import CornerRules
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.blends.curvature_continuous import arc_blend_x, g2_corner_x
 from ipo.contracts import PeriodBatch
@@ -106,13 +107,12 @@ def test_trapezoid_mode_keeps_the_circular_blend(theta_deg):
     assert pc.omega[1] == pytest.approx(1 / r, rel=1e-12)
     assert pc.length[1] == pytest.approx(r * th, rel=1e-12)
     assert pc.length[0] == pytest.approx(10 - r * np.tan(th / 2), rel=1e-12)
-    assert FeedPlanner(FINE).g2_limits is None
+    assert FeedPlanner(FINE).corners.g2_limits is None
 
 
 def _periods(ents, cfg, force_arc=False):
-    planner = FeedPlanner(cfg, start_mm=ents[0].start)
-    if force_arc:  # the circular blend of the old S-curve corner, even where it would stop
-        planner.g2_limits, planner.min_blend_radius_mm = None, 0.0
+    # force_arc: the circular blend of the old S-curve corner, even where it would stop
+    planner = FeedPlanner(cfg, start_mm=ents[0].start, corners=CornerRules(0.0, None) if force_arc else None)
     return np.concatenate([b.pos_mm for b in planner.run(ents) if isinstance(b, PeriodBatch)])
 
 
@@ -196,7 +196,7 @@ def test_polyline_along_a_curve_keeps_its_chained_arcs():
     quintic's flat end: g2_corners decides twice) may take the quintic. An isolated 10-degree
     corner between 10 mm lines takes it."""
     planner = FeedPlanner(SCURVE)
-    limits = dict(g2_limits=planner.g2_limits, min_blend_radius_mm=planner.min_blend_radius_mm)
+    limits = planner.corners._asdict()
     ang = np.radians(np.arange(0, 91))
     pts = np.c_[10 * np.cos(ang), 10 * np.sin(ang), np.zeros(len(ang))]
     p = PathControl(blend_tol_mm=0.01)
