@@ -83,3 +83,28 @@ def evaluate(g: Geometry, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
 def frame(g: Geometry, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit tangents and curvature vectors (N, 3) of analytic pieces idx at arc lengths sigma."""
     return _frame(g, np.asarray(idx, dtype=np.int64), np.asarray(sigma, dtype=np.float64))
+
+
+@njit(cache=True)
+def _clip(x, lo, hi):
+    """np.clip of one float."""
+    x = x if (x >= lo or x != x) else lo
+    return x if (x <= hi or x != x) else hi
+
+
+@njit(cache=True)
+def points_along(g, pstart, length, sv):
+    """The piece of each arc length sv (pieces starting at pstart; a point exactly on a
+    boundary belongs to the piece it completes) and the point there, as the analytic form
+    gives it (the caller replaces the points of NURBS and blend pieces)."""
+    n = sv.shape[0]
+    loc = np.empty(n, np.int64)
+    pos = np.empty((n, 3))
+    last = pstart.shape[0] - 1
+    for k in range(n):
+        i = min(max(np.searchsorted(pstart, sv[k], side="right") - 1, 0), last)
+        if i > 0 and sv[k] <= pstart[i] + 1e-12:
+            i -= 1
+        loc[k] = i
+        point_into(g, i, _clip(sv[k] - pstart[i], 0.0, length[i]), pos, k)
+    return loc, pos

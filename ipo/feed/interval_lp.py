@@ -163,10 +163,24 @@ def _certified(r, n, tol, a_top, b_top, i, j, near, pair):
 
 
 @njit(cache=True)
+def _tightest_at_top(r, m, b_top):
+    """The row (of the first m + 1: the axis rows and x_k <= a_top) whose bound on x_k is the
+    lowest at x_k+1 = b_top, or -1: a first guess at the optimum's pair with row m + 2."""
+    best, arg = _BIG, -1
+    for q in range(m + 1):
+        if r[q, 0] > 0.0:
+            bound = (r[q, 2] - r[q, 1] * b_top) / r[q, 0]
+            if bound < best:
+                best, arg = bound, q
+    return arg
+
+
+@njit(cache=True)
 def max_start_from(rows, m, a_top, b_top, r, pairs, near):
     """max_start, bit for bit, trying first the pairs of rows in `pairs` (4,): the optimum of
     the last interval and the one before it that differed (neighbouring intervals are
-    alike; updated to this interval's). r (m + 4, 3) and near (m + 4,) are scratch.
+    alike; updated to this interval's), then the row tightest at x_k+1 = b_top with that
+    bound. r (m + 4, 3) and near (m + 4,) are scratch.
 
     1. A hinted pair's vertex v0 = (a0, b0), if it is feasible.
     2. The certificate: the objective (1, 0) = l1 n_i + l2 n_j with both l > 0. Then every
@@ -180,13 +194,17 @@ def max_start_from(rows, m, a_top, b_top, r, pairs, near):
     n = _unit_rows(rows, m, a_top, b_top, r)
     tol = 1e-9 * max(1.0, b_top)
     last_i, last_j = pairs[0], pairs[1]
-    for h in range(2):
-        i, j = pairs[2 * h], pairs[2 * h + 1]
+    x = -2.0
+    for h in range(3):
+        if h < 2:
+            i, j = pairs[2 * h], pairs[2 * h + 1]
+        else:  # the row that bounds x_k tightest at x_k+1 = b_top, with that bound's row
+            i, j = _tightest_at_top(r, m, b_top), m + 2
         if 0 <= i < j < n:
             x = _certified(r, n, tol, a_top, b_top, i, j, near, pairs)
             if x > -2.0:
                 break
-    else:
+    if x == -2.0:
         x = min(_best_vertex(r, n, tol, -1.0, pairs), a_top)
     if pairs[0] != last_i or pairs[1] != last_j:
         pairs[2], pairs[3] = last_i, last_j

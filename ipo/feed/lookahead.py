@@ -98,28 +98,62 @@ def plan(s, t, kv, cap, a_max, ascale, x0: float, x_end: float) -> np.ndarray:
     return forward(s, t, kv, xb, a_max, ascale, x0)
 
 
+@njit(cache=True)
+def np_max(a, b):
+    """np.maximum of two floats (a NaN in a wins, -0.0 against 0.0 keeps a)."""
+    return a if (a >= b or a != a) else b
+
+
+@njit(cache=True)
+def np_min(a, b):
+    """np.minimum of two floats."""
+    return a if (a <= b or a != a) else b
+
+
+@njit(cache=True)
+def _sample_times(s, x):
+    n = s.shape[0]
+    tc = np.empty(n)
+    tc[0] = 0.0
+    acc = 0.0
+    v0 = np.sqrt(np_max(x[0], 0.0))
+    for k in range(n - 1):
+        v1 = np.sqrt(np_max(x[k + 1], 0.0))
+        ds = s[k + 1] - s[k]
+        vsum = v0 + v1
+        if ds > 0 and vsum <= 0:
+            return tc, k
+        dt = 2.0 * ds / vsum if ds > 0 else 0.0
+        acc = acc + dt if k > 0 else dt
+        tc[k + 1] = acc
+        v0 = v1
+    return tc, -1
+
+
 def sample_times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Time at each sample from the first, with constant s'' in each interval."""
-    v = np.sqrt(np.maximum(x, 0.0))
-    ds = np.diff(s)
-    vsum = v[:-1] + v[1:]
-    if np.any((ds > 0) & (vsum <= 0)):
-        k = int(np.nonzero((ds > 0) & (vsum <= 0))[0][0])
-        raise RuntimeError(f"look-ahead profile stands still inside the path at s = {s[k]:.6f} mm")
-    dt = np.divide(2.0 * ds, vsum, out=np.zeros_like(ds), where=ds > 0)
-    return np.concatenate([[0.0], np.cumsum(dt)])
+    tc, stuck = _sample_times(s, x)
+    if stuck >= 0:
+        raise RuntimeError(f"look-ahead profile stands still inside the path at s = {s[stuck]:.6f} mm")
+    return tc
 
 
-def positions_at(times: np.ndarray, s: np.ndarray, x: np.ndarray, tc: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
+@njit(cache=True)
+def positions_at(times, s, x, tc):
     """Arc length and the sample interval at each time (times within [0, tc[-1]])."""
-    k = np.clip(np.searchsorted(tc, times, side="right") - 1, 0, len(s) - 2)
-    tau = times - tc[k]
-    ds = s[k + 1] - s[k]
-    v0 = np.sqrt(np.maximum(x[k], 0.0))
-    acc = np.divide(x[k + 1] - x[k], 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
-    pos = np.minimum(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1])
-    return np.maximum(pos, s[k]), k
+    n = times.shape[0]
+    pos = np.empty(n)
+    ks = np.empty(n, np.int64)
+    last = s.shape[0] - 2
+    for i in range(n):
+        k = min(max(np.searchsorted(tc, times[i], side="right") - 1, 0), last)
+        tau = times[i] - tc[k]
+        ds = s[k + 1] - s[k]
+        v0 = np.sqrt(np_max(x[k], 0.0))
+        acc = (x[k + 1] - x[k]) / (2.0 * ds) if ds > 0 else 0.0
+        pos[i] = np_max(np_min(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1]), s[k])
+        ks[i] = k
+    return pos, ks
 
 
 @njit(cache=True)
