@@ -94,8 +94,9 @@ class Window:
             lag = int(np.searchsorted(self.pstart, s_out_mm, side="right")) - 1
             first = min(first, max(lag, 0))
         if first > 0:
+            kept = set(self.pieces.nurbs[first:].tolist())
             for i in np.unique(self.pieces.nurbs[:first]):
-                if i >= 0 and i not in set(self.pieces.nurbs[first:].tolist()):
+                if i >= 0 and i not in kept:
                     self.drivers.pop(int(i), None)
             self.pieces = self.pieces.take(slice(first, None))
             self.pstart = self.pstart[first:]
