@@ -16,6 +16,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
+from ipo.config_values import RANGES, ConfigError, range_key  # noqa: F401 (the loader's public names)
+from ipo.config_values import choice as _choice
+from ipo.config_values import no_extra as _no_extra
+from ipo.config_values import number as _number
+from ipo.config_values import take as _take
+from ipo.grbl_settings import DEFAULT_GRBL_BAUD, GrblSettings, machine_file_keys
+
 # NURBS interpolators that can follow a feed profile (constant du cannot: it is for `vcnc interp` studies)
 METHODS = ("recursive", "taylor1", "taylor2")
 ACCEL_MODES = ("trapezoid", "scurve")
@@ -24,52 +31,13 @@ TOOL_SHAPES = ("flat", "ball", "bull")
 AXIS_NAMES = ("x", "y", "z")
 WORK_OFFSET_NAMES = tuple(f"G{n}" for n in range(54, 60)) + ("G59.1", "G59.2", "G59.3")
 DIALECTS = ("linuxcnc", "fanuc", "haas", "mach3", "grbl")
-
-
-# key pattern (an axis, tool or work offset name as *) -> inclusive (low, high) and why the bounds
-RANGES: dict[str, tuple[float, float, str]] = {
-    "period_s": (1e-5, 0.1, "10 us (a fast FPGA loop) to 100 ms"),
-    "blu_mm": (1e-6, 0.01, "1 nm to 10 um"),
-    "chord_tol_mm": (1e-6, 1.0, "1 nm to 1 mm"),
-    "g64_blend_tol_mm": (0.0, 10.0, "0 (no blending) to 10 mm"),
-    "rapid_mm_s": (0.01, 1e4, "0.6 mm/min to 600 m/min"),
-    "axes.*.max_velocity_mm_s": (0.01, 1e4, "0.6 mm/min to 600 m/min"),
-    "axes.*.max_accel_mm_s2": (1.0, 1e6, "1 mm/s^2 to about 100 g"),
-    "axes.*.max_jerk_mm_s3": (10.0, 1e9, "10 mm/s^3 to 1e9 mm/s^3"),
-    "axes.*.min_mm": (-1e5, 1e5, "within 100 m of the origin"),
-    "axes.*.max_mm": (-1e5, 1e5, "within 100 m of the origin"),
-    "work_offsets_mm.*": (-1e5, 1e5, "within 100 m of the origin"),
-    "tools.*.length_mm": (-1000.0, 1000.0, "up to 1 m either way"),
-    "tools.*.ball_radius_mm": (0.0, 100.0, "0 (flat end mill) to 100 mm"),
-    "tools.*.flutes": (1, 100, "1 to 100"),
-    "tools.*.diameter_mm": (0.0, 200.0, "0 (from ball_radius_mm) to 200 mm"),
-    "tools.*.corner_radius_mm": (0.0, 100.0, "0 to 100 mm"),
-    "stock.min_mm": (-1e5, 1e5, "within 100 m of the origin"),
-    "stock.max_mm": (-1e5, 1e5, "within 100 m of the origin"),
-    "finishing.pick_feed_mm": (1e-4, 100.0, "0.1 um to 100 mm (and below the ball diameter)"),
-    "finishing.roughness_target_um": (1e-3, 1e3, "1 nm to 1 mm"),
-    "servo.time_constant_s": (0.0, 1.0, "0 to 1 s"),
-    "servo.kp_1_s": (0.0, 1e4, "0 to 10,000 1/s"),
-    "servo.kd": (0.0, 100.0, "0 to 100"),
+# planner profiles: the machine file's `planner` -> the ipo.feed module whose `plan_periods` runs it
+# (ipo.feed.profiles imports it); a controller twin joins with one entry here
+PLANNERS = {
+    "vcnc": "ipo.feed.planner",
+    "grbl": "ipo.feed.grbl_twin.twin",
+    "linuxcnc": "ipo.feed.linuxcnc_twin.planner",
 }
-
-
-def range_key(key: str) -> str:
-    """The RANGES pattern of a key: its axis, tool or work offset name replaced by *."""
-    parts = key.split(".")
-    if parts[0] in ("axes", "tools") and len(parts) == 3:
-        parts[1] = "*"
-    elif parts[0] == "work_offsets_mm" and len(parts) == 2:
-        parts[1] = "*"
-    return ".".join(parts)
-
-
-class ConfigError(ValueError):
-    """A bad machine configuration; the message starts with the key."""
-
-    def __init__(self, key: str, message: str):
-        self.key = key
-        super().__init__(f"{key}: {message}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,37 +99,9 @@ class MachineConfig:
     max_loop_iterations: int = 10_000_000
     m99_repeat: bool = False
     stock_mm: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None  # (min, max), work coords
-
-
-def _take(table: dict, key: str, prefix: str) -> Any:
-    if key not in table:
-        raise ConfigError(prefix + key, "missing")
-    return table[key]
-
-
-def _number(value: Any, key: str, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ConfigError(key, f"must be a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise ConfigError(key, f"must be > 0, got {value!r}")
-    if nonneg and value < 0:
-        raise ConfigError(key, f"must be >= 0, got {value!r}")
-    if (bounds := RANGES.get(range_key(key))) is not None and not bounds[0] <= value <= bounds[1]:
-        low, high, why = bounds
-        raise ConfigError(key, f"must be between {low:g} and {high:g} ({why}), got {value!r}")
-    return float(value)
-
-
-def _choice(value: Any, key: str, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise ConfigError(key, f"must be one of {', '.join(choices)}, got {value!r}")
-    return value
-
-
-def _no_extra(table: dict, allowed: set[str], prefix: str) -> None:
-    for key in table:
-        if key not in allowed:
-            raise ConfigError(prefix + str(key), "unknown key")
+    planner: str = "vcnc"  # a key of PLANNERS: whose motion planning a run reproduces
+    grbl_settings: GrblSettings | None = None  # the grbl twin's `$$` (None: from the axes, ipo.grbl_settings)
+    grbl_baud: int = DEFAULT_GRBL_BAUD  # the grbl twin's serial link
 
 
 def _axis(table: Any, name: str) -> AxisLimits:
@@ -318,11 +258,12 @@ def _servo(table: Any) -> Servo:
     return servo
 
 
-def config_from_dict(data: dict) -> MachineConfig:
-    """Validate a parsed TOML document into a MachineConfig."""
+def config_from_dict(data: dict, base: Path | None = None) -> MachineConfig:
+    """Validate a parsed TOML document into a MachineConfig (files it names are relative to `base`)."""
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
            "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
-           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes", "stock"}
+           "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes", "stock",
+           "planner", "grbl"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -351,6 +292,8 @@ def config_from_dict(data: dict) -> MachineConfig:
         user_mcodes=_user_mcodes(data.get("user_mcodes", {})),
         **_interpreter_keys(data),
         stock_mm=_stock(data["stock"]) if "stock" in data else None,
+        planner=_choice(data.get("planner", "vcnc"), "planner", tuple(PLANNERS)),
+        **machine_file_keys(data.get("grbl", {}), base),
     )
 
 
@@ -381,7 +324,7 @@ def load_config(path: str | Path) -> MachineConfig:
         raise ConfigError(str(path), f"not valid TOML: {exc}") from exc
     except UnicodeDecodeError as exc:
         raise ConfigError(str(path), f"not valid TOML: not UTF-8 text (byte {exc.start})") from exc
-    config = config_from_dict(data)
+    config = config_from_dict(data, Path(path).parent)
     # subroutine folders are relative to the machine file, as LinuxCNC's are to its INI file
     folders = tuple(str(Path(path).parent / p) for p in config.subroutine_path)
     return dataclasses.replace(config, subroutine_path=folders)

@@ -16,7 +16,9 @@ ARC_RADIUS = "E-IPO-ARC-RADIUS"  # an arc whose start lies on its centre
 NON_FINITE = "E-IPO-NON-FINITE"  # a motion with a non-finite coordinate
 START = "E-IPO-START"  # a motion that does not start where the machine stands
 ROUGHNESS_TARGET = "E-IPO-ROUGHNESS-TARGET"  # a roughness target the pick feed cannot meet
-CODES = (NURBS_PATH, NURBS_DATA, NURBS_CUT, ARC_RADIUS, NON_FINITE, START, ROUGHNESS_TARGET)
+SCURVE = "E-IPO-SCURVE"  # no jerk-limited profile within the axis limits was found (S-curve mode)
+TWIN_INPUT = "E-IPO-TWIN-INPUT"  # a block a controller twin cannot model as the controller would receive it
+CODES = (NURBS_PATH, NURBS_DATA, NURBS_CUT, ARC_RADIUS, NON_FINITE, START, ROUGHNESS_TARGET, SCURVE, TWIN_INPUT)
 
 
 class IpoError(ValueError):

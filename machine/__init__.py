@@ -1,6 +1,8 @@
 """machine — the receivers of ipo's period stream, and the `vcnc` command line.
 
 - `controller`: checks a whole program, then runs it through ipo.feed into the drive.
+- `planners`: which planner a run uses (vcnc's or a controller twin, ipo.feed.profiles) and
+  what machine hands a twin (the grbl twin: the grbl link's lines, machine.grbl.wire).
 - `drive`, `servo`, `extents`: the simulated drive (limits, statistics, servo lag) and the
   travel check of the whole path.
 - `realtime`: pacing at the interpolation period, with hold, override and stop.

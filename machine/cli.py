@@ -41,7 +41,7 @@ SHORT_HELP = {
     "stream": "Stream FILE to a grbl 1.1 board or an increment-protocol drive.",
     "grbl": "Sender features for a grbl 1.1 board (streaming is `vcnc stream`).",
     "fit": "Replace G01 runs by rational B-spline G06.2 groups within a tolerance.",
-    "compare": "Run two programs in the same controller and compare them (002 Table 1).",
+    "compare": "Run two programs (or one on two controllers) and compare them (002 Table 1).",
     "surface": "Fit digitised cross-sections, skin them into a rational surface and write IGES.",
     "surface-report": "Measure a machined surface saved by `vcnc run --surface OUT.npz`.",
     "toolpath": "Write ball-end finishing passes over an IGES surface as G06.2 groups.",

@@ -70,6 +70,7 @@ class RunResult:
     realtime_factor: float  # simulated time / (check_s + wall_s): parse, check, plan, interpolate, drive
     wall_s: float  # the run: plan, interpolate, drive (and the pacing in real-time mode)
     check_s: float
+    planner: str = "vcnc"  # whose motion planning ran (machine.planners.describe)
     program_stops: list[int] = field(default_factory=list)
     messages: list[str] = field(default_factory=list)
     fault: str | None = None
@@ -105,7 +106,7 @@ class Controller:
         self.on_program_stop = on_program_stop
         self.on_event = on_event
         self.limits = DriveLimits.from_config(config)
-        self.planner = planner  # plan_periods's signature; None = ipo.feed.planner.plan_periods
+        self.planner = planner  # plan_periods's signature; None = the machine file's planner (machine.planners)
         self.check_s = 0.0
 
     def check(self, path: str | Path) -> Program:
@@ -140,9 +141,10 @@ class Controller:
 
     def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
-        if self.planner is None:
-            from ipo.feed.planner import plan_periods
-            self.planner = plan_periods
+        plan = self.planner
+        if plan is None:
+            from machine.planners import planner_for
+            plan = planner_for(self.config, program, start_position(program))
         drive = self.make_drive(program)
         drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time
         deliver = player.play if player is not None else drive.receive
@@ -151,7 +153,7 @@ class Controller:
         stops: list[int] = []
         messages: list[str] = []
         state, fault = "completed", None
-        stream = self.planner(program.entities, self.config, method=self.method,
+        stream = plan(program.entities, self.config, method=self.method,
                               feed_override=self.feed_override, start_mm=start_position(program))
         if player is not None:
             from machine.realtime import prefetch
@@ -236,4 +238,9 @@ class Controller:
             deadline_misses=None if player is None else player.deadline_misses,
             realtime_factor=sim / (wall + self.check_s) if wall > 0 else math.inf,
             wall_s=wall, check_s=self.check_s,
-            program_stops=stops, messages=messages, fault=fault)
+            planner=self._planner_name(), program_stops=stops, messages=messages, fault=fault)
+
+    def _planner_name(self) -> str:
+        from machine.planners import describe
+
+        return describe(self.config) if self.planner is None else getattr(self.planner, "__name__", "custom")

@@ -18,15 +18,21 @@ machine stands).
 - `limits`: caps on v^2 at the samples, each with its reason, 002's roughness limiter
   among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too);
   `cap_kernels`: the per-sample caps, compiled.
+- `merge`: G64 Q, G1 runs within Q of one line joined before the pieces (LinuxCNC's rule).
 - `lookahead`: the phase-plane profile and its time parameterisation; `interval_lp`: the
   two-variable programme of one interval that its backward pass solves per sample.
-- `scurve`: the jerk-limiting moving average of S-curve mode.
+- `scurve`: S-curve mode's window: jerk-limited segments committed and put out by period;
+  `jerk_plan` finds them (anchors, passes, checks), `jerk_profile` holds the double-S closed
+  forms.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
 - `emission`: a refined profile -> the period grid -> quantised positions -> `PeriodBatch`;
   owns where the machine stands and the S-curve filter; reads the window.
 - `planner`: the look-ahead plan over the window and the loop between the owners;
   `plan_periods`, the stage's entry point.
+- `grbl_twin/`, `linuxcnc_twin/`: the controller twins (a grbl 1.1 board, LinuxCNC 2.9) behind
+  the same interface; `profiles`: the machine file's `planner` -> its plan_periods
+  (ipo.config.PLANNERS).
 
-May import: ipo.config, ipo.contracts, ipo.errors, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

@@ -5,12 +5,11 @@ The planner (ipo.feed.planner) plans v^2 over the window's samples and refines i
 (where along the path each period ends, lookahead.sample_times and positions_at), turns
 those arc lengths into machine positions (lines, arcs and blends evaluated exactly by arc
 length, a NURBS walked by its stepper), quantises them to BLU increments
-(ipo.interp.reference_word.quantise), passes them through the S-curve filter in that mode
-(ipo.feed.scurve) and cuts the batches where events sit.
+(ipo.interp.reference_word.quantise) and cuts the batches where events sit. S-curve mode
+hands it its jerk-limited segments as another time law (ipo.feed.scurve.SegmentLaw).
 
 It owns the state that belongs to the machine rather than to the plan: where the machine
-stands (in mm and in BLU), the S-curve filter with the arc length it has put out, and
-the period grid's phase. It reads the planner's window (ipo.feed.window: pieces, where
+stands (in mm and in BLU) and the period grid's phase. It reads the planner's window (ipo.feed.window: pieces, where
 they start, their NURBS drivers, pending events) and changes nothing in it: it hands back
 where it stopped and how many events it put out.
 """
@@ -30,7 +29,6 @@ from ipo.feed.analytic import points_along
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
-from ipo.feed.scurve import MovingAverage
 
 
 @njit(cache=True, error_model="numpy")
@@ -94,82 +92,87 @@ class Profile(NamedTuple):
     s_samples: np.ndarray
 
 
-class PeriodOutput:
-    """Machine position, S-curve filter and period grid state; see the module docstring."""
+class RefinedLaw:
+    """A refined Profile as a time law for PeriodOutput.emit_law: constant path acceleration
+    between its points (lookahead.sample_times, positions_at)."""
 
-    def __init__(self, config: MachineConfig, fir: MovingAverage | None, *, start_mm, batch_periods: int):
+    def __init__(self, prof: Profile):
+        self.prof = prof
+        self.tc = sample_times(prof.s, prof.v2)
+        self.duration = float(self.tc[-1])
+        self.last = len(prof.s_samples) - 1  # the window sample it ends on
+        self.s_end = float(prof.s[-1])
+
+    def at(self, times: np.ndarray, s_prev: float):
+        """Arc length at each time, the limit reason of each period, and the refined interval
+        each falls in."""
+        sv, k = positions_at(times, self.prof.s, self.prof.v2, self.tc)
+        return sv, self.prof.reason[k], k
+
+    def cut_after(self, k: int) -> tuple[int, float]:
+        """Where a replan may start after refined interval k: the next window sample, and when."""
+        k_stop = min(int(self.prof.src[k]) + 1, self.last)
+        r = int(np.searchsorted(self.prof.s, self.prof.s_samples[k_stop], side="left"))
+        return k_stop, float(self.tc[r])
+
+
+class PeriodOutput:
+    """Machine position and period grid state; see the module docstring."""
+
+    def __init__(self, config: MachineConfig, *, start_mm, batch_periods: int):
         self.T = config.period_s
         self.blu_mm = config.blu_mm
         self.batch_periods = batch_periods
-        self.fir = fir
         self.pos = np.array(start_mm, dtype=float)
         self.blu = np.rint(self.pos / config.blu_mm).astype(np.int64)
-        self.s_out = 0.0  # arc length of the last period sent (S-curve filter output)
         self._phase = self.T  # time from the first held sample to the next period end
         self._s_last = 0.0  # planned arc length at the end of the last period
 
     def emit(self, prof: Profile, window: Window, *, stop: bool, replan: Callable[[], bool]):
-        """Periods along the profile up to its last sample, where the machine stops if
-        `stop`. When `replan()` turns true (a feed override changed) it finishes the current
-        sample interval and ends there. The generator returns (k, n): the sample it ended on
-        (the next plan starts there) and how many of the window's events it put out."""
-        s, xs, src, seg_reason = prof.s, prof.v2, prof.src, prof.reason
-        c = len(prof.s_samples) - 1
-        tc = sample_times(s, xs)
-        t_next, s_prev, k_stop, used = self._phase, self._s_last, c, 0
+        """Periods along a refined profile (RefinedLaw); see emit_law."""
+        return (yield from self.emit_law(RefinedLaw(prof), window, stop=stop, replan=replan))
+
+    def emit_law(self, law, window: Window, *, stop: bool, replan: Callable[[], bool]):
+        """Periods along a time law up to its end (law.duration; RefinedLaw, or S-curve mode's
+        segments, ipo.feed.scurve.SegmentLaw), where the machine stops if `stop`. When
+        `replan()` turns true (a feed override changed) it runs on to where the law allows a
+        new plan to start (law.cut_after) and ends there. The generator returns (k, n): the
+        window sample it ended on (the next plan starts there) and how many of the window's
+        events it put out."""
+        t_next, s_prev, k_stop, used = self._phase, self._s_last, law.last, 0
+        t_stop = law.duration
         while True:
-            fit = int(np.floor((tc[-1] - t_next) / self.T + 1e-9)) + 1 if t_next <= tc[-1] + 1e-12 else 0
+            fit = int(np.floor((law.duration - t_next) / self.T + 1e-9)) + 1 if t_next <= law.duration + 1e-12 else 0
             n = min(fit, self.batch_periods)
             times = t_next + self.T * np.arange(n)
             last = times[-1] if n else t_next - self.T
-            exact_stop = stop and n == fit and tc[-1] - last > 1e-12
+            exact_stop = stop and n == fit and law.duration - last > 1e-12
             if exact_stop:
-                times = np.append(times, tc[-1])  # the stop is reached exactly at a period's end
+                times = np.append(times, law.duration)  # the stop is reached exactly at a period's end
             if len(times) == 0:
                 break
-            sv, kseg = positions_at(np.minimum(times, tc[-1]), s, xs, tc)
+            sv, reason, idx = law.at(np.minimum(times, law.duration), s_prev)
             if exact_stop:
-                sv[-1] = s[-1]
-            used = yield from self._periods(sv, s_prev, seg_reason[kseg], window, used, flush=stop and n == fit)
+                sv[-1] = law.s_end
+            used = yield from self._batch(sv, s_prev, reason, window, used)
             s_prev = self._s_last = float(sv[-1])
             t_next = times[-1] + self.T
             if n == fit:
                 break
             if replan():
-                # finish the current sample interval on the old plan, then replan from there
-                k_stop = min(int(src[kseg[-1]]) + 1, c)
-                r_stop = int(np.searchsorted(s, prof.s_samples[k_stop], side="left"))
-                t_stop = tc[r_stop]
+                k_stop, t_stop = law.cut_after(int(idx[-1]))
                 more = int(np.floor((t_stop - t_next) / self.T + 1e-9)) + 1 if t_next <= t_stop else 0
                 if more:
                     times = t_next + self.T * np.arange(more)
-                    sv, kseg = positions_at(times, s, xs, tc)
-                    used = yield from self._periods(sv, s_prev, seg_reason[kseg], window, used, flush=False)
+                    sv, reason, _ = law.at(times, s_prev)
+                    used = yield from self._batch(sv, s_prev, reason, window, used)
                     s_prev = self._s_last = float(sv[-1])
                     t_next = times[-1] + self.T
                 break
-        self._phase = t_next - (tc[r_stop] if k_stop < c else tc[len(s) - 1])
-        if stop and k_stop == c:
+        self._phase = t_next - (t_stop if k_stop < law.last else law.duration)
+        if stop and k_stop == law.last:
             self._phase = self.T
         return k_stop, used
-
-    def _periods(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, used: int, *,
-                 flush: bool):
-        """Planned arc lengths sv of consecutive periods to the machine, through the S-curve
-        filter in that mode; `flush` runs the filter out at a stop. The window's events from
-        index `used` on that are due by the end are yielded in place; the generator returns
-        the index after the last one put out."""
-        if self.fir is None:
-            return (yield from self._batch(sv, s_prev, limit, window, used))
-        smooth = self.fir.filter(np.diff(sv, prepend=s_prev), run_out=flush)
-        if flush:
-            limit = np.concatenate([limit, np.full(self.fir.m - 1, LIMIT_ACCEL, np.int8)])
-        s_f = self.s_out + np.cumsum(smooth)
-        if flush:
-            s_f[-1] = sv[-1]  # the filter has run out: the stop itself, without rounding
-        prev = self.s_out
-        self.s_out = float(s_f[-1])
-        return (yield from self._batch(s_f, prev, limit, window, used))
 
     def _batch(self, sv: np.ndarray, s_prev: float, limit: np.ndarray, window: Window, used: int):
         """Points at arc lengths sv, quantised; split where events sit (the window's from

@@ -21,10 +21,15 @@ ROUGHNESS_USE = 0.9999
 # per-period positions (the jerk) weighted by the quadratic B-spline of the three periods
 # around it: at most 3/4 da / T, when the step falls mid-period.
 STEP_JERK_SHARE = 0.75
-# S-curve mode: a corner blend crossed below this multiple of lowest_smooth_x is slower than
+# S-curve mode: a corner blend crossed below this multiple of ramp_x is slower than
 # stopping at the corner (single 30 and 90 degree corners between 10 mm lines at F6000 broke
-# even near a blend cap of 7.8 mm/s, 1.56 sqrt(lowest_smooth_x))
+# even near a blend cap of 7.8 mm/s, 1.56 sqrt(ramp_x))
 G2_BLEND_MIN_X = 2.5
+# S-curve mode: the curvature's own rate of change, v^3 |kv_i'| (the centripetal acceleration
+# turning and growing along a curve), may take this multiple of the steps' share of J (half):
+# 0.9 J, where the path's own jerk and its coupling, checked with the rate as it is
+# (ipo.feed.jerk_plan), keep to the rest
+RATE_OVER_STEP = 1.8
 
 
 @njit(cache=True)
@@ -50,92 +55,38 @@ def curvature_cap(t, kv, a_max):
     return out
 
 
-@njit(cache=True)
-def spread_min(s, cap, span_s, period_s, accel):
-    """Each cap also holds wherever the moving-average filter (S-curve mode, m periods of
-    span_s = m T) mixes planned speeds into the output at that point.
-
-    The output position p is the mean of the last m planned positions and its speed the
-    mean planned speed over those periods plus one: a window of W <= span + 2 T in which the
-    planned trajectory passes p. Either end of the window lies (1/W) int tau v(tau) dtau
-    from p (the mean, tau counted from the far end). With the speed held to v_c within the
-    reach R >= v_c W / 2, leaving it takes W / 2 at least, and from there the speed grows
-    by accel (|s''| <= |a| <= ||A||) at most: R = v_c W / 2 + 5 accel W^2 / 48. v^2 being
-    linear between samples, the samples are capped up to the first one beyond R."""
-    n = s.shape[0]
-    out = cap.copy()
-    for k in range(n):
-        if not (0.0 < cap[k] < 1e300):
-            continue  # no cap, or a stop: the filter is run out at stops
-        w = span_s + 2.0 * period_s
-        reach = np.sqrt(cap[k]) * w / 2.0 + 5.0 * accel * w * w / 48.0
-        j = k - 1
-        while j >= 0:
-            out[j] = min(out[j], cap[k])
-            if s[k] - s[j] > reach:
-                break
-            j -= 1
-        j = k + 1
-        while j < n:
-            out[j] = min(out[j], cap[k])
-            if s[j] - s[k] > reach:
-                break
-            j += 1
-    return out
+def ramp_x(a_max: np.ndarray, j_max: np.ndarray) -> float:
+    """S-curve mode: (A^2 / 2J)^2, the square of the speed a jerk-limited ramp gains while its
+    acceleration rises to A (A the largest axis acceleration, J the curvature terms' jerk
+    share): a corner blend whose caps lie below about this crawls through its curvature
+    steps for longer than a stop at the corner would take."""
+    a = float(a_max.max())
+    return (a * a / (4.0 * float(j_max.min()))) ** 2
 
 
-def lowest_smooth_x(fir, a_max: np.ndarray, period_s: float) -> float:
-    """S-curve mode: the lowest cap on v^2 the moving-average filter `fir` crosses smoothly,
-    what it mixes in over its span at the path acceleration, (A span / 2)^2."""
-    return (0.5 * float(a_max.max()) * fir.m * period_s) ** 2
-
-
-def low_caps_to_stops(cap: np.ndarray, piece: np.ndarray, x_low: float) -> np.ndarray:
-    """S-curve mode: a cap below x_low (lowest_smooth_x: too low for the filter to cross a
-    step of the curvature smoothly) becomes a stop where pieces meet and at the window's
-    ends, so the curvature steps at standstill; inside a piece the curvature is continuous
-    and the low cap is crossed as it is, not stopped at sample by sample."""
-    edge = np.ones(len(piece), bool)
-    edge[1:-1] = (piece[1:-1] != piece[:-2]) | (piece[1:-1] != piece[2:])
-    return np.where((cap < x_low) & edge, 0.0, cap)
-
-
-def min_blend_radius_mm(fir, a_max: np.ndarray, j_max: np.ndarray | None, period_s: float) -> float:
+def min_blend_radius_mm(a_max: np.ndarray, j_max: np.ndarray | None, period_s: float) -> float:
     """S-curve mode: the smallest corner blend of radius R crossed without stopping. Below it
     the blend's caps, where it meets a move v^2 / R <= J T (its curvature steps), along it
-    v^2 / R <= A and v^3 / R^2 <= J, lie under lowest_smooth_x: it would be stopped at both
-    ends, where the unblended corner stops once. 0 without the filter (trapezoid mode)."""
-    if fir is None:
+    v^2 / R <= A and v^3 / R^2 <= J, lie under ramp_x: the unblended corner, which stops
+    once, is as fast. 0 in trapezoid mode (j_max None)."""
+    if j_max is None:
         return 0.0
-    x_low, j = lowest_smooth_x(fir, a_max, period_s), float(j_max.min())
+    x_low, j = ramp_x(a_max, j_max), float(j_max.min())
     return max(x_low / (j * period_s), x_low / float(a_max.min()), float(np.sqrt(x_low**1.5 / j)))
 
 
-def g2_blend_limits(fir, a_max: np.ndarray, j_max: np.ndarray | None,
+def g2_blend_limits(a_max: np.ndarray, j_max: np.ndarray | None,
                     period_s: float) -> tuple[float, float, float, float] | None:
     """S-curve mode: (a, j, x_min, step) for pieces.build's curvature-continuous corner
-    blends: the smallest path acceleration and jerk limits, the lowest cap on v^2 at which
-    crossing such a blend beats stopping at the corner (G2_BLEND_MIN_X lowest_smooth_x), and
-    what a circular blend's curvature step 1/R allows, v^2 / R <= J T / STEP_JERK_SHARE
-    (sample_caps). None without the filter (trapezoid mode keeps its circular blends)."""
-    if fir is None:
+    blends: the smallest acceleration limit and the curvature terms' jerk share, the lowest
+    cap on v^2 at which crossing such a blend beats stopping at the corner (G2_BLEND_MIN_X
+    ramp_x), and what a circular blend's curvature step 1/R allows, v^2 / R <= J T /
+    STEP_JERK_SHARE (sample_caps). None in trapezoid mode (circular blends)."""
+    if j_max is None:
         return None
     j = float(j_max.min())
-    return (float(a_max.min()), j, G2_BLEND_MIN_X * lowest_smooth_x(fir, a_max, period_s),
+    return (float(a_max.min()), RATE_OVER_STEP * j, G2_BLEND_MIN_X * ramp_x(a_max, j_max),
             j * period_s / STEP_JERK_SHARE)
-
-
-def jerk_accel_scale(t: np.ndarray, kv: np.ndarray, x_cap: np.ndarray, a_max: np.ndarray,
-                     j_mm_s3: float) -> np.ndarray:
-    """Share of the path acceleration in each of the K - 1 intervals (S-curve mode) that keeps
-    the rate of change of the centripetal acceleration from speeding up on a curve,
-    d(v^2 kappa)/dt = 2 v s'' kappa, within j_mm_s3: v from the cap at either end, s'' up to
-    what the axis limits allow along the tangent, min_i A_i / |t_i|."""
-    with np.errstate(divide="ignore"):
-        a_path = np.min(a_max[None, :] / np.abs(t), axis=1)
-        w = np.sqrt(np.minimum(x_cap, 1e12)) * np.linalg.norm(kv, axis=1) * np.minimum(a_path, 1e12)
-        rate = 2.0 * np.maximum(w[:-1], w[1:])
-        return np.minimum(1.0, j_mm_s3 / rate)
 
 
 def curvature_rate_cap(s: np.ndarray, kv: np.ndarray, piece: np.ndarray, j_max: np.ndarray) -> np.ndarray:
@@ -150,6 +101,37 @@ def curvature_rate_cap(s: np.ndarray, kv: np.ndarray, piece: np.ndarray, j_max: 
     rate[1:] = np.maximum(rate[1:], d)
     with np.errstate(divide="ignore"):
         return np.min((j_max[None, :] / rate) ** (2.0 / 3.0), axis=1)
+
+
+def step_caps(s: np.ndarray, kv: np.ndarray, edge: np.ndarray, j_max: np.ndarray, period_s: float) -> np.ndarray:
+    """S-curve mode: cap on v^2 at each piece joint (samples edge, edge + 1) where the
+    curvature vector steps by dk: v^2 |dk_i| <= J_i T / STEP_JERK_SHARE. A piece shorter than
+    a period between two joints (a polyline's micron remnant of a straight between two
+    blends) is a pulse of the acceleration, not two steps: of height v^2 |dk_i| for delta / v,
+    it shows in the third difference as at most v |dk_i| delta / T^2 (the quadratic
+    B-spline's slope is at most 1 / T), so v |dk_i| delta <= J_i T^2, with the net step across
+    the piece held like a step."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dk = np.abs(kv[edge + 1] - kv[edge])
+        x_step = np.min(j_max[None, :] * period_s / (STEP_JERK_SHARE * dk), axis=1)
+        if len(edge) < 2:
+            return x_step
+        a, b = edge[:-1], edge[1:]  # the piece between joints a and b spans samples a + 1 .. b
+        delta = s[b] - s[a + 1]
+        net = np.abs(kv[b + 1] - kv[a])
+        height = np.maximum(dk[:-1], dk[1:])
+        x_pulse = np.min((j_max[None, :] * period_s**2 / (height * delta[:, None])) ** 2, axis=1)
+        x_pair = np.minimum(x_pulse, np.min(j_max[None, :] * period_s / (STEP_JERK_SHARE * net), axis=1))
+    pulse = delta < np.sqrt(np.minimum(x_pair, 1e300)) * period_s
+    out = x_step.copy()
+    lifted = np.full(len(edge), np.inf)  # an edge between two short pieces takes the lower pair cap
+    lifted[:-1] = np.where(pulse, x_pair, np.inf)
+    lifted[1:] = np.minimum(lifted[1:], np.where(pulse, x_pair, np.inf))
+    in_pair = np.zeros(len(edge), bool)
+    in_pair[:-1] |= pulse
+    in_pair[1:] |= pulse
+    out[in_pair] = lifted[in_pair]
+    return out
 
 
 def _least_inclination(t: np.ndarray) -> np.ndarray:
@@ -183,17 +165,15 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         smp.t, smp.kv, smp.piece, pc.corner_tol_mm, v_max, a_max, (1.0 - CORNER_SHARE) * a_max * period_s,
         NEGLIGIBLE_STEP * room, period_s, delta_mm)
     if j_max is not None:
-        with np.errstate(divide="ignore"):
-            dk = np.abs(smp.kv[edge + 1] - smp.kv[edge])
-            x_jerk = np.min(j_max[None, :] * period_s / (STEP_JERK_SHARE * dk), axis=1)
-        x_jerk = np.where(sharp, 0.0, x_jerk)
+        x_jerk = np.where(sharp, 0.0, step_caps(smp.s, smp.kv, edge, j_max, period_s))
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
         x_corner[edge + 1] = np.minimum(x_corner[edge + 1], x_jerk)
         # the centripetal acceleration turns with the tangent: its rate is v^3 kappa^2
         kappa = np.linalg.norm(smp.kv, axis=1)
+        j_rate = RATE_OVER_STEP * j_max
         with np.errstate(divide="ignore"):
-            x_corner = np.minimum(x_corner, (j_max.min() / kappa**2) ** (2.0 / 3.0))
-        x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_max))
+            x_corner = np.minimum(x_corner, (j_rate.min() / kappa**2) ** (2.0 / 3.0))
+        x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_rate))
     rows = [x_axis, x_curv, x_corner, x_corner]  # row 3: the chord cap, filled in by combined_caps
     codes = [LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_CURVATURE, LIMIT_CHORD]
     if finishing is not None:

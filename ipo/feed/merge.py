@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator
 
 import numpy as np
+from numba import njit
 
 from ipr.entities import Line
 
@@ -27,13 +28,18 @@ from ipr.entities import Line
 MAX_CHAIN = 101
 
 
-def _within(start: np.ndarray, end: np.ndarray, points: np.ndarray, tol_mm: float) -> bool:
-    """Every point (N, 3) within tol_mm of the segment start -> end."""
-    m = end - start
-    mm = float(m @ m)
-    t = np.clip((points - start) @ m / mm, 0.0, 1.0) if mm > 0 else np.zeros(len(points))
-    d = points - (start + t[:, None] * m)
-    return bool(np.all(np.einsum("ij,ij->i", d, d) <= tol_mm * tol_mm))
+@njit(cache=True)
+def _within(x0, y0, z0, x1, y1, z1, points, n, tol_mm):
+    """Each of the first n points (N, 3) within tol_mm of the segment (x0, y0, z0) -> (x1, y1, z1)."""
+    mx, my, mz = x1 - x0, y1 - y0, z1 - z0
+    mm = mx * mx + my * my + mz * mz
+    for k in range(n):
+        px, py, pz = points[k, 0] - x0, points[k, 1] - y0, points[k, 2] - z0
+        f = min(max((px * mx + py * my + pz * mz) / mm, 0.0), 1.0) if mm > 0.0 else 0.0
+        dx, dy, dz = px - f * mx, py - f * my, pz - f * mz
+        if dx * dx + dy * dy + dz * dz > tol_mm * tol_mm:
+            return False
+    return True
 
 
 def _mergeable(e) -> bool:
@@ -63,7 +69,7 @@ def merge_collinear(entities: Iterable) -> Iterator:
             head = chain[0]
             linkable = (e.feed_mm_s == head.feed_mm_s and e.path == head.path and len(chain) < MAX_CHAIN
                         and e.end != head.start
-                        and _within(np.array(head.start), np.array(e.end), ends[:len(chain)], e.path.merge_tol_mm))
+                        and _within(*head.start, *e.end, ends, len(chain), e.path.merge_tol_mm))
             if not linkable:
                 yield from flush()
         ends[len(chain)] = e.end

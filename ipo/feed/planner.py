@@ -11,10 +11,10 @@ target step v*T).
 Bounded memory: the planner holds a window that reaches one stopping distance beyond
 what it commits, and it emits the committed part chunk by chunk.
 
-S-curve mode (accel_mode = "scurve"): the per-period path steps pass a moving average
-over 2 A / J seconds (ipo.feed.scurve), the planner gives the tangential and centripetal
-shares half of each axis limit each, caps are spread over what the filter mixes, and
-unblended corners become stops.
+S-curve mode (accel_mode = "scurve"): the acceleration-limited profile becomes jerk-limited
+segments between anchors (ipo.feed.scurve, ipo.feed.jerk_plan), with the tangential and
+centripetal shares of each axis limit split only where the path curves; unblended corners
+become stops.
 
 Feed override. `plan_periods(..., feed_override=f)` plans every feed move at f times its
 programmed feed (rapids are not overridden; the other limits always hold). A real-time
@@ -32,8 +32,8 @@ import numpy as np
 
 from ipo.feed import lookahead as la
 from ipo.config import METHODS, MachineConfig
-from ipo.feed.limits import (CORNER_SHARE, axis_velocity_cap, g2_blend_limits, jerk_accel_scale, low_caps_to_stops,
-                             lowest_smooth_x, min_blend_radius_mm, sample_caps, spread_min)
+from ipo.feed import scurve
+from ipo.feed.limits import CORNER_SHARE, axis_velocity_cap, g2_blend_limits, min_blend_radius_mm, sample_caps
 from ipo.contracts import LIMIT_ACCEL, LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, Profile, centripetal_binds, period_reasons
@@ -41,7 +41,6 @@ from ipo.feed.intake import CornerRules, Intake
 from ipo.feed.merge import merge_collinear
 from ipo.roughness import cusp_height_mm
 from ipo.feed.window import Window
-from ipo.feed.scurve import MovingAverage
 from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, Dwell, Line, Message, ProgramEnd, Rapid, Spindle,
                           Stop, ToolChange)
 
@@ -82,31 +81,24 @@ class FeedPlanner:
         self.T = config.period_s
         self.v_max = np.array([a.max_velocity_mm_s for a in config.axes]) * VELOCITY_USE
         self.a_max = np.array([a.max_accel_mm_s2 for a in config.axes]) * ACCEL_USE
-        self._fir = None
-        self._j_max = None
+        self._j_max = None  # S-curve mode: the share of each axis jerk the curvature steps' caps get
+        self.j_axis = None  # S-curve mode: each axis's jerk limit (with the planner's margin)
         if config.accel_mode == "scurve":
-            # the filter's own ramps use up to half of J; the steps of curvature where pieces
-            # meet and the centripetal acceleration along curves get the other half
-            self._j_max = np.array([a.max_jerk_mm_s3 for a in config.axes]) * (0.5 * ACCEL_USE)
-            # the filter shifts the path acceleration along the path against the centripetal
-            # share planned for each point: each gets half of every axis limit
-            self.a_max = self.a_max / 2
-            # a planned reversal from +A/2 to -A/2 steps an axis acceleration by A: the filter
-            # spreads it over 2 A / J seconds, a jerk of J / 2
-            self._fir = MovingAverage.for_limits(np.array([2 * a.max_accel_mm_s2 for a in config.axes]),
-                                                 np.array([a.max_jerk_mm_s3 for a in config.axes]), self.T)
+            self.j_axis = np.array([a.max_jerk_mm_s3 for a in config.axes]) * ACCEL_USE
+            # the steps of curvature where pieces meet get half of J (ipo.feed.limits); the
+            # path's own jerk is checked with the curvature's terms as they are (jerk_plan)
+            self._j_max = 0.5 * self.j_axis
         # the corner settings of S-curve mode (arcs no tighter than this; the
         # curvature-continuous corners' limits); a study may pass its own to force arcs
-        self.corners = corners or CornerRules(min_blend_radius_mm(self._fir, self.a_max, self._j_max, self.T),
-                                              g2_blend_limits(self._fir, self.a_max, self._j_max, self.T))
+        self.corners = corners or CornerRules(min_blend_radius_mm(self.a_max, self._j_max, self.T),
+                                              g2_blend_limits(self.a_max, self._j_max, self.T))
         end_gap_mm = nurbs_end_gap_mm(config)
         self._intake = Intake(method=self.method, end_gap_mm=end_gap_mm, blend_default_mm=config.g64_blend_tol_mm,
                               rapid_mm_s=config.rapid_mm_s, corners=self.corners)
         self._win = Window(partial(sample_caps, v_max=self.v_max, a_max=self.a_max, period_s=self.T,
                                    delta_mm=config.chord_tol_mm, finishing=_finishing_params(config),
                                    j_max=self._j_max), end_gap_mm)
-        # the output side runs the filter; the planner reads only its span (fir.m)
-        self._output = PeriodOutput(config, self._fir, start_mm=start_mm, batch_periods=self.batch_periods)
+        self._output = PeriodOutput(config, start_mm=start_mm, batch_periods=self.batch_periods)
 
     def set_feed_override(self, factor: float) -> None:
         """Scale the programmed feeds of the periods not yet emitted (1.0 = 100 %)."""
@@ -184,13 +176,13 @@ class FeedPlanner:
         win = self._win
         xf = self._feed_v2(len(win.samples))
         hard = win.cap
-        if self._fir is not None:
-            hard = low_caps_to_stops(hard, win.samples.piece, lowest_smooth_x(self._fir, self.a_max, self.T))
-            hard = spread_min(win.samples.s, hard, self._fir.m * self.T, self.T, float(np.linalg.norm(self.a_max)))
         prog = xf < hard
         return np.where(prog, xf, hard), np.where(prog, LIMIT_PROGRAMMED, win.reason).astype(np.int8)
 
     def _plan(self, *, final: bool) -> Iterator:
+        if self.j_axis is not None:
+            yield from scurve.run(self, self._win, self._output, final)
+            return
         while self._win.samples is not None and len(self._win.samples) > 1:
             self._override_changed = False
             smp = self._win.samples
@@ -226,13 +218,9 @@ class FeedPlanner:
 
     def _ascale(self, n: int, cap: np.ndarray) -> np.ndarray:
         """Share of the path acceleration in the first n - 1 sample intervals: halved next to
-        sharp corners; in S-curve mode also kept within the jerk on curves (jerk_accel_scale)."""
+        sharp corners."""
         win = self._win
-        scale = np.where(win.corner[:n - 1] | win.corner[1:n], CORNER_SHARE, 1.0)
-        if self._j_max is not None:
-            scale = np.minimum(scale, jerk_accel_scale(win.samples.t[:n], win.samples.kv[:n], cap[:n], self.a_max,
-                                                       float(self._j_max.min())))
-        return scale
+        return np.where(win.corner[:n - 1] | win.corner[1:n], CORNER_SHARE, 1.0)
 
     def _emit(self, c: int, x: np.ndarray, cap: np.ndarray, reason: np.ndarray, *, stop: bool) -> Iterator:
         """The plan x over samples 0..c, refined, to the output side; then drop what it put
@@ -249,7 +237,7 @@ class FeedPlanner:
                                                     replan=lambda: self._override_changed)
         self._win.take_events(used)
         self._win.x0_v2 = float(x[k_stop])
-        self._win.drop(k_stop, None if self._fir is None else self._output.s_out)
+        self._win.drop(k_stop)
 
 
 def _finishing_params(cfg: MachineConfig):

@@ -1,34 +1,127 @@
-"""S-curve (jerk-limited) mode: a moving average over the planned per-period path steps.
+"""S-curve (jerk-limited) mode: the window's jerk-limited profile, committed and put out by period.
 
-The path step of each period is the mean of the last m planned steps, m T = A / J. A
-trapezoidal profile's acceleration then ramps over m periods instead of jumping, so the
-jerk stays within A / (m T) = J, and no distance is lost: at a stop the filter is run out
-with m - 1 periods of zero input, which end exactly on the stop.
+Per look-ahead window: the acceleration-limited profile under every cap (ipo.feed.lookahead,
+the whole axis budget: the split between tangential and centripetal shares is made by
+ipo.feed.jerk_plan only where the path curves) -> anchors and jerk-limited segments between
+them (ipo.feed.jerk_plan) -> the segments up to the last anchor from which the machine can
+still stop before the window's end with its jerk limit are committed -> period ends on that
+time line (SegmentLaw) -> ipo.feed.emission. A stop (G61, an unblended corner, the program's
+end) is an anchor at speed 0 and the period grid lands exactly on it, as in trapezoid mode. A
+feed override change takes effect at the next anchor: the rest is planned again from there.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
+from typing import NamedTuple
+
 import numpy as np
 
+from ipo.contracts import LIMIT_ACCEL
+from ipo.errors import SCURVE, IpoError
+from ipo.feed import jerk_plan
+from ipo.feed import lookahead as la
+from ipo.feed.jerk_profile import TANGENTIAL_JERK_SHARE, transition_distance
 
-class MovingAverage:
-    """Streaming moving average of per-period path steps over `m` periods."""
+_STANDSTILL_X = 1e-12
+_STANDSTILL_V = 1e-6
+# a straight shorter than this between curved pieces is planned as part of the curve (with
+# its share of the jerk) rather than as a segment of its own with zero acceleration at both
+# ends (a polyline's micron remnants between blends)
+STRAIGHT_MIN_MM = 0.5
 
-    def __init__(self, m: int):
-        if m < 1:
-            raise ValueError(f"the filter needs at least one period, got {m}")
-        self.m = m
-        self._held = np.zeros(m - 1)  # the last m - 1 inputs
 
-    @classmethod
-    def for_limits(cls, accel_mm_s2: np.ndarray, jerk_mm_s3: np.ndarray, period_s: float) -> "MovingAverage":
-        span_s = float(np.max(accel_mm_s2 / jerk_mm_s3))
-        return cls(max(int(np.ceil(span_s / period_s - 1e-9)), 1))
+class Segments(NamedTuple):
+    """Anchors (sample indices) with their speeds, and per gap the peak speed and limits."""
 
-    def filter(self, steps: np.ndarray, *, run_out: bool) -> np.ndarray:
-        """Filtered steps; with run_out, m - 1 more periods that bring the sum level."""
-        if run_out:
-            steps = np.concatenate([steps, np.zeros(self.m - 1)])
-        joined = np.concatenate([self._held, steps])
-        c = np.cumsum(np.concatenate([[0.0], joined]))
-        self._held = joined[len(joined) - (self.m - 1):].copy()
-        return (c[self.m:] - c[:-self.m]) / self.m
+    idx: np.ndarray
+    w: np.ndarray
+    vp: np.ndarray
+    ag: np.ndarray
+    jg: np.ndarray
+
+
+def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segments:
+    """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
+    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM)
+    if not ok:
+        raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
+    return Segments(idx, w, vp, ag, jg)
+
+
+def stop_reach_mm(v_top: float, a_axis: np.ndarray, j_axis: np.ndarray) -> float:
+    """Path length in which the machine stops from v_top with the smallest path limits a curve
+    leaves it: how far before a window's end its plan still depends on what follows."""
+    return transition_distance(v_top, 0.0, float(a_axis.min()), TANGENTIAL_JERK_SHARE * float(j_axis.min())) + 1e-3
+
+
+def period_limits(sv: np.ndarray, s_prev: float, period_s: float, s: np.ndarray, cap: np.ndarray,
+                  reason: np.ndarray) -> np.ndarray:
+    """The LIMIT_* code of each period: the cap of its sample interval where the period runs
+    within 1 % of it, else the acceleration (the jerk-limited speed changes)."""
+    k = np.clip(np.searchsorted(s, sv, side="right") - 1, 0, len(s) - 1)
+    v = np.diff(sv, prepend=s_prev) / period_s
+    at_cap = (cap[k] > 0) & (v * v >= 0.98 * cap[k])
+    return np.where(at_cap, reason[k], LIMIT_ACCEL).astype(np.int8)
+
+
+class SegmentLaw:
+    """Jerk-limited segments as a time law for the output side (emission.PeriodOutput.emit_law):
+    anchors at window samples seg.idx (the first at sample 0), times from the first anchor."""
+
+    def __init__(self, seg: Segments, s: np.ndarray, cap: np.ndarray, reason: np.ndarray, period_s: float):
+        self.seg, self.s, self.cap, self.reason, self.T = seg, s, cap, reason, period_s
+        dur = jerk_plan.durations(s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg)
+        self.t_start = np.concatenate([[0.0], np.cumsum(dur)])
+        self.duration = float(self.t_start[-1])
+        self.last = int(seg.idx[-1])
+        self.s_end = float(s[self.last])
+
+    def at(self, times: np.ndarray, s_prev: float):
+        seg = self.seg
+        sv, gap = jerk_plan.arc_lengths_at(times, self.s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg, self.t_start)
+        return sv, period_limits(sv, s_prev, self.T, self.s, self.cap, self.reason), gap
+
+    def cut_after(self, g: int) -> tuple[int, float]:
+        """A replan starts at the anchor that ends gap g."""
+        return int(self.seg.idx[g + 1]), float(self.t_start[g + 1])
+
+
+def run(planner, win, output, final: bool) -> Iterator:
+    """The planner's window in S-curve mode: plan, commit, emit (stop by stop, so that the
+    period grid lands on each); again while the override changed or everything must go out."""
+    while win.samples is not None and len(win.samples) > 1:
+        planner._override_changed = False
+        smp = win.samples
+        cap, reason = planner._soft_caps()
+        x = la.plan(smp.s, smp.t, smp.kv, cap, planner.a_max, planner._ascale(len(smp), cap), win.x0_v2, 0.0)
+        x[x < _STANDSTILL_X] = 0.0
+        line = int(win.pieces.line[smp.piece[0] - win.piece_base])
+        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)), line)
+        m = len(seg.idx)
+        if final:
+            commit = m - 1
+        else:
+            reach = stop_reach_mm(float(np.sqrt(cap.max())), planner.a_max, planner.j_axis)
+            c = int(np.searchsorted(smp.s, win.s_end_mm - reach, side="right")) - 1
+            commit = int(np.searchsorted(seg.idx, c, side="right")) - 1
+            if commit < 1:
+                return
+        ends = [g for g in range(1, commit) if seg.w[g] <= _STANDSTILL_V] + [commit]
+        done = 0
+        for e in ends:
+            base = int(seg.idx[done])
+            part = Segments(seg.idx[done:e + 1] - base, seg.w[done:e + 1], seg.vp[done:e], seg.ag[done:e],
+                            seg.jg[done:e])
+            law = SegmentLaw(part, win.samples.s, cap[base:], reason[base:], planner.T)
+            k_stop, used = yield from output.emit_law(law, win, stop=bool(part.w[-1] <= _STANDSTILL_V),
+                                                      replan=lambda: planner._override_changed)
+            win.take_events(used)
+            win.x0_v2 = float(part.w[int(np.searchsorted(part.idx, k_stop))]) ** 2
+            win.drop(k_stop)
+            if planner._override_changed:
+                break
+            done = e
+        if not (final or planner._override_changed):
+            return
+    if final and win.samples is not None and len(win.samples) <= 1:
+        win.reset()

@@ -84,15 +84,11 @@ class Window:
     def _relative(self, smp: Samples) -> Samples:
         return Samples(smp.s, smp.t, smp.kv, smp.piece - self.piece_base, smp.sigma)
 
-    def drop(self, k: int, s_out_mm: float | None) -> None:
-        """Forget samples before k and the pieces no sample refers to any more; with
-        s_out_mm (S-curve mode: the filter's output lags) keep the pieces from there on."""
+    def drop(self, k: int) -> None:
+        """Forget samples before k and the pieces no sample refers to any more."""
         self.samples = self.samples.tail(k)
         self.cap, self.reason, self.corner = self.cap[k:], self.reason[k:], self.corner[k:]
         first = int(self.samples.piece[0]) - self.piece_base
-        if s_out_mm is not None:
-            lag = int(np.searchsorted(self.pstart, s_out_mm, side="right")) - 1
-            first = min(first, max(lag, 0))
         if first > 0:
             kept = set(self.pieces.nurbs[first:].tolist())
             for i in np.unique(self.pieces.nurbs[:first]):

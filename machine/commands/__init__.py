@@ -12,6 +12,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
+# an input file: exists, is a file, may be read (a missing one is a usage error, exit 2)
+INPUT_FILE = click.Path(exists=True, dir_okay=False, readable=True)
+
+
 def load_machine(path: str | None):
     """The machine file, or the built-in default; a bad file names the key and exits."""
     from ipo.config import ConfigError, default_config, load_config
@@ -22,6 +26,32 @@ def load_machine(path: str | None):
         raise click.ClickException(f"machine file {path or '(default)'}: {err}") from None
     except OSError as err:
         raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
+
+
+def planner_options(fn):
+    """--planner and --grbl-settings, shared by the commands that run a program."""
+    from ipo.config import PLANNERS
+
+    fn = click.option("--grbl-settings", "grbl_settings", type=INPUT_FILE,
+                      help="grbl's `$$` printout (`$110=6000.000` lines) for the grbl twin "
+                           "(default: the machine file's [grbl] settings, else its axes).")(fn)
+    return click.option("--planner", type=click.Choice(list(PLANNERS)), default=None,
+                        help="Whose motion planning to reproduce: vcnc's own, or a controller twin "
+                             "(default: the machine file's `planner`).")(fn)
+
+
+def apply_planner(config, planner: str | None, grbl_settings: str | None):
+    """The machine configuration with --planner and --grbl-settings applied (a bad dump: usage error)."""
+    from ipo.grbl_settings import GrblSettingsError, read_dump
+    from machine.planners import with_planner
+
+    settings = None
+    if grbl_settings is not None:
+        try:
+            settings = read_dump(grbl_settings)
+        except GrblSettingsError as err:
+            raise click.BadParameter(str(err), param_hint="--grbl-settings") from None
+    return with_planner(config, planner, settings)
 
 
 class OutputPath(click.ParamType):
@@ -48,5 +78,4 @@ class OutputPath(click.ParamType):
         return str(value)
 
 
-# an input file: exists, is a file, may be read (a missing one is a usage error, exit 2)
-INPUT_FILE = click.Path(exists=True, dir_okay=False, readable=True)
+

@@ -1,7 +1,10 @@
-"""`vcnc compare A.nc B.nc [--machine M.toml] [--plot OUT.png] [--json]`: G01 against NURBS.
+"""`vcnc compare A.nc B.nc [--machine M.toml] [--planner P [--planner Q]] [--plot OUT.png] [--json]`:
+G01 against NURBS, or one program on two controllers.
 
-Runs both programs through the same virtual controller and prints them side by
-side (002 Table 1): blocks, bytes, machining time, mean and minimum feed, feed
+Runs both programs through the virtual controller and prints them side by side (002
+Table 1); one --planner runs both on that planner, two run A on the first and B on the
+second (`vcnc compare A.nc A.nc --planner grbl --planner vcnc`: the same program as a grbl
+board and as vcnc would run it). The table shows: blocks, bytes, machining time, mean and minimum feed, feed
 fluctuation, slow-downs below 50 % of F, the largest distance between the two
 paths both ways, the largest realised chord error, and, where the machine file has
 a finishing section, 002's feed-direction roughness R_max (max, mean) of the cut.
@@ -19,9 +22,10 @@ from pathlib import Path
 import click
 import numpy as np
 
-from machine.commands import INPUT_FILE, OutputPath
+from ipo.config import PLANNERS
+from machine.commands import INPUT_FILE, OutputPath, apply_planner, load_machine
 
-ROWS = [("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
+ROWS = [("planner", "planner", "{}"), ("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
         ("feed fluctuation (std/mean)", "feed_fluctuation_pct", "{:.2f} %"),
         ("slow-downs below 50 % of F", "slowdowns", "{:d}"),
@@ -63,7 +67,7 @@ def _run(path: Path, config, cut: dict | None = None):
     feed_lines = {e.line: e.feed_mm_s for e in program.entities if isinstance(e, (Line, Arc, Nurbs))}
     rpm = max((e.rpm for e in program.entities if isinstance(e, Spindle) and e.direction), default=0.0)
     text = path.read_bytes()
-    return {"blocks": count_blocks(text.decode("utf-8", "replace")), "bytes": len(text),
+    return {"planner": config.planner, "blocks": count_blocks(text.decode("utf-8", "replace")), "bytes": len(text),
             "time_s": float(result.cycle_time_s), "max_chord_error_um": float(result.max_chord_error_um),
             "trace": trace, "feed_lines": feed_lines, "rpm": rpm, "program": program, "summary": result.summary(),
             "surface": None if workpiece is None else workpiece.surface()}
@@ -144,15 +148,18 @@ def path_distances_mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return best
 
 
-def compare_programs(path_a, path_b, machine=None, cut: dict | None = None) -> dict:
+def compare_programs(path_a, path_b, machine=None, cut: dict | None = None, configs=None) -> dict:
     """Both programs' figures, keyed "a" and "b" (plus "files"); with `cut` (build_workpiece's stock_text,
-    tool, grid_um) both cut a workpiece and "surfaces" holds the machined surfaces' figures."""
+    tool, grid_um) both cut a workpiece and "surfaces" holds the machined surfaces' figures. `configs`:
+    the machine configuration of each run (default: the machine file's, for both)."""
     from ipo.config import default_config, load_config
 
-    config = default_config() if machine is None else load_config(machine)
+    if configs is None:
+        config = default_config() if machine is None else load_config(machine)
+        configs = (config, config)
     out = {"files": [str(path_a), str(path_b)], "machine": str(machine) if machine else "(default)"}
     runs = {}
-    for key, path in (("a", Path(path_a)), ("b", Path(path_b))):
+    for key, path, config in (("a", Path(path_a), configs[0]), ("b", Path(path_b), configs[1])):
         run = _run(path, config, cut)
         runs[key] = run
         figs = {k: v for k, v in run.items() if k not in _NOT_FIGURES}
@@ -240,10 +247,15 @@ def _plot(res: dict, out: str) -> None:
 @click.option("--surface-plot", "surface_plot", type=OutputPath((".png",)), default=None,
               help="With --stock: both machined surfaces side by side and their difference.")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
+@click.option("--planner", "planners", multiple=True, type=click.Choice(list(PLANNERS)),
+              help="Whose planning runs the programs: once for both, twice for A then B (default: the machine "
+                   "file's `planner`).")
+@click.option("--grbl-settings", "grbl_settings", type=INPUT_FILE,
+              help="grbl's `$$` printout for the grbl twin (default: the machine file's [grbl] settings).")
 def command(a: str, b: str, machine: str | None, plot_out: str | None, report_out: str | None,
             stock_text: str | None, tool: int | None, grid_um: float | None, surface_plot: str | None,
-            as_json: bool) -> None:
-    """Run two programs in the same controller and compare them (002 Table 1)."""
+            as_json: bool, planners: tuple[str, ...], grbl_settings: str | None) -> None:
+    """Run two programs (or one on two controllers) and compare them (002 Table 1)."""
     from ipo.config import ConfigError
     from machine.controller import ProgramRejected
 
@@ -251,9 +263,14 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, report_ou
     from machine.workpiece.stock import StockError
     from machine.workpiece.tool import ToolError
 
+    if len(planners) > 2:
+        raise click.BadParameter("give it once (both runs) or twice (A, then B)", param_hint="--planner")
     cut = cut_options(stock_text, tool, grid_um, surface_plot)
+    config = load_machine(machine)
+    configs = [apply_planner(config, p, grbl_settings) for p in (planners * 2 if len(planners) == 1 else planners
+                                                                 or (None, None))]
     try:
-        res = compare_programs(a, b, machine, cut)
+        res = compare_programs(a, b, machine, cut, configs)
     except (StockError, ToolError) as err:
         raise click.ClickException(str(err)) from None
     except ProgramRejected as err:

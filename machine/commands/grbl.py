@@ -14,7 +14,7 @@ import time
 
 import click
 
-from machine.commands import load_machine
+from machine.commands import OutputPath, load_machine
 
 PORT = click.option("--port", required=True, help="device path, socket://host:port, rfc2217://host:port or loop://")
 BAUD = click.option("--baud", type=int, default=115200, show_default=True)
@@ -178,16 +178,23 @@ def machine_settings(config) -> dict[int, float]:
               help="machine TOML (default: the built-in machine)")
 @click.option("--apply-machine", is_flag=True, help="write the machine file's rates, accelerations and travel")
 @click.option("--yes", is_flag=True, help="do not ask before writing")
-def settings(port, baud, machine_file, apply_machine, yes):
+@click.option("--save", "save_file", type=OutputPath((".txt",)), default=None,
+              help="write the $$ printout as grbl printed it, for --grbl-settings and [grbl] settings (the grbl twin)")
+def settings(port, baud, machine_file, apply_machine, yes, save_file):
     """Show grbl's $$ settings; with --apply-machine, write the machine file's values after a confirmation."""
     from machine.grbl import protocol as P
     from machine.grbl.link import LinkError
 
     link = _open(port, baud)
     try:
-        have = P.parse_settings(link.command("$$"))
+        printout = link.command("$$")
+        have = P.parse_settings(printout)
         for k in sorted(have):
             click.echo(f"${k}={have[k]:g}")
+        if save_file:
+            with open(save_file, "w") as fh:
+                fh.write("".join(line.strip() + "\n" for line in printout if line.strip().startswith("$")))
+            click.echo(f"settings written to {save_file} (vcnc run --planner grbl --grbl-settings {save_file})")
         if not apply_machine:
             return
         want = machine_settings(load_machine(machine_file))

@@ -6,6 +6,7 @@ import sys
 
 import click
 
+from ipo.config import PLANNERS
 from machine.commands import INPUT_FILE, load_machine
 
 def _load_program(path):
@@ -22,7 +23,7 @@ def _stdout_is_terminal() -> bool:
     return sys.stdout.isatty()
 
 
-def _dry_run(protocol, file, program, config, resume_from) -> None:
+def _dry_run(protocol, file, program, config, resume_from, estimate, planner, baud) -> None:
     out = sys.stdout.buffer
     if protocol == "increments":
         import numpy as np
@@ -52,6 +53,14 @@ def _dry_run(protocol, file, program, config, resume_from) -> None:
                "starts from the machine's real position and offsets", err=True)
     for n in job.warnings + job.notices:
         click.echo(f"notice: {n}", err=True)
+    if estimate:
+        from machine.commands.stream_grbl import estimate_config
+        from machine.grbl.estimate import JobEstimate
+        from machine.planners import describe
+
+        est_config = estimate_config(config, planner, None, baud)
+        est = JobEstimate.plan(job.groups, est_config, (0.0, 0.0, 0.0))
+        click.echo(f"job time ({describe(est_config)}): {est.total_s:.1f} s", err=True)
 
 
 def _stream_increments(port, baud, program, config) -> None:
@@ -91,11 +100,14 @@ def _stream_increments(port, baud, program, config) -> None:
 @click.option("--ledger", "ledger_file", type=click.Path(dir_okay=False), default=None,
               help="the stream's ledger of lines sent and acknowledged [default: FILE.vcnc-ledger]")
 @click.option("--estimate/--no-estimate", default=True, show_default=True,
-              help="plan the job with vcnc's planner first: job time, and time remaining while streaming")
+              help="plan the job first (the grbl twin with the board's $$): job time, and time remaining while "
+                   "streaming")
+@click.option("--planner", type=click.Choice(list(PLANNERS)), default=None,
+              help="whose planning the grbl estimate uses [default: grbl, the twin of the board]")
 @click.option("--poll-hz", type=click.FloatRange(min=0.5, max=20.0), default=5.0, show_default=True,
               help="grbl status polls per second")
 def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlock, resume, ledger_file, estimate,
-            poll_hz):
+            poll_hz, planner):
     """Stream FILE to a grbl 1.1 board or an increment-protocol drive."""
     if dry_run and protocol == "increments" and _stdout_is_terminal():
         raise click.UsageError("--dry-run with --protocol increments writes binary frames: "
@@ -105,7 +117,7 @@ def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlo
     if (resume_from is not None or resume) and protocol == "increments":
         raise click.UsageError("--resume-from and --resume apply to grbl streams only")
     if dry_run:
-        _dry_run(protocol, file, program, config, resume_from)
+        _dry_run(protocol, file, program, config, resume_from, estimate, planner, baud)
         return
     if not port:
         raise click.UsageError("--port is required (or use --dry-run)")
@@ -113,6 +125,6 @@ def command(file, port, protocol, baud, machine_file, resume_from, dry_run, unlo
         from machine.commands.stream_grbl import stream_grbl
 
         stream_grbl(port, baud, file, config, resume_from=resume_from, resume=resume, ledger_path=ledger_file,
-                    unlock=unlock, poll_hz=poll_hz, estimate_time=estimate)
+                    unlock=unlock, poll_hz=poll_hz, estimate_time=estimate, planner=planner)
     else:
         _stream_increments(port, baud, program, config)

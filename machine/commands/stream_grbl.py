@@ -70,6 +70,23 @@ def status_text(st, acknowledged: int, total: int, estimate=None, link=None) -> 
     return text
 
 
+def estimate_config(config, planner: str | None, board_settings: dict | None, baud: int):
+    """The configuration the estimate plans with: the grbl twin (unless --planner says
+    otherwise) with the board's `$$` where it answered them, at the link's baud rate."""
+    import dataclasses
+
+    from ipo.grbl_settings import GrblSettingsError, from_values
+    from machine.planners import with_planner
+
+    out = with_planner(config, planner or "grbl")
+    if board_settings:
+        try:
+            out = with_planner(out, None, from_values(board_settings, "the board"))
+        except GrblSettingsError:
+            pass  # a board that does not print every setting: the machine file's stand in (describe says so)
+    return dataclasses.replace(out, grbl_baud=int(baud))
+
+
 def grbl_job(path, config, state, numbered=False, frame_mm=None):
     """The whole stream for a machine in `state`, made before a byte goes out, so a
     program grbl cannot take fails here and not halfway through."""
@@ -116,7 +133,8 @@ def _resume_point(link, job, ledger_path, resume_from, session):
     return find_resume(window(lines, session.last_acknowledged, None, link.planner_blocks, 0), st.mpos)
 
 
-def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, unlock, poll_hz, estimate_time):
+def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, unlock, poll_hz, estimate_time,
+                planner=None):
     from rich.console import Console
     from rich.live import Live
     from rich.text import Text
@@ -169,9 +187,11 @@ def stream_grbl(port, baud, file, config, *, resume_from, resume, ledger_path, u
         estimate = None
         if estimate_time:
             from machine.grbl.estimate import JobEstimate
+            from machine.planners import describe
 
-            estimate = JobEstimate.plan(job.entities, job.lines, config, start.mpos_mm)
-            console.print(f"job time (vcnc's planner): {estimate.total_s:.1f} s", highlight=False)
+            est_config = estimate_config(config, planner, info.settings, baud)
+            estimate = JobEstimate.plan(job.groups, est_config, start.mpos_mm)
+            console.print(f"job time ({describe(est_config)}): {estimate.total_s:.1f} s", highlight=False)
         point = None
         lines = job.lines
         if session is not None:

@@ -1,10 +1,12 @@
-"""Job time before a stream and time remaining during it, from vcnc's own planner.
+"""Job time before a stream and time remaining during it.
 
-vcnc's IPO (`ipo.feed.planner.plan_periods`) plans the program with the machine file's
-limits; the periods of each program line times the period give that line's time, and
-the remaining time from a stream line is the sum over the program lines from its own
-on. grbl plans with its own settings and 15-block look-ahead, so this is vcnc's
-estimate, not grbl's (dwells count; M0 pauses do not).
+The program is planned with the machine configuration's planner (ipo.config.PLANNERS): for
+a grbl stream that is the grbl twin with the board's own `$$` and the link's baud rate, fed
+the very lines the stream sends (machine.grbl.wire), so the estimate is what grbl will do,
+look-ahead, arcs and serial link included; `vcnc` plans with vcnc's own IPO instead. The
+periods of each program line give that line's time (a dwell's standing periods included;
+M0 pauses, which wait for the operator, are not), and the remaining time from a stream
+line is the sum over the program lines from its own on.
 """
 from __future__ import annotations
 
@@ -13,26 +15,28 @@ from dataclasses import dataclass
 import numpy as np
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class JobEstimate:
     total_s: float
-    after_s: np.ndarray  # after_s[i]: time from stream line seq_of[i] on
+    after_s: np.ndarray  # after_s[i]: time from stream line seq[i] on
     seq: np.ndarray  # stream line numbers, ascending
 
     @classmethod
-    def plan(cls, entities, lines, config, start_mm) -> JobEstimate:
-        from ipo.feed.planner import plan_periods
+    def plan(cls, groups, config, start_mm) -> JobEstimate:
+        """The estimate for stream_groups' (entity, lines), the machine standing at start_mm."""
+        from machine.planners import plan_with_lines
 
+        groups = list(groups)
+        entities = [e for e, _ in groups if e is not None]
+        lines = [l for _, ls in groups for l in ls]
+        plan = plan_with_lines(config, groups)
         per_line: dict[int, int] = {}
-        for b in plan_periods(entities, config, start_mm=tuple(start_mm)):
+        for b in plan(entities, config, start_mm=tuple(start_mm)):
             if hasattr(b, "inc_blu"):
                 src, n = np.unique(np.asarray(b.line), return_counts=True)
                 for s, k in zip(src.tolist(), n.tolist()):
                     per_line[s] = per_line.get(s, 0) + k
-        dwell = {e.line: e.seconds for e in entities if type(e).__name__ == "Dwell"}
         times = {s: n * config.period_s for s, n in per_line.items()}
-        for s, t in dwell.items():
-            times[s] = times.get(s, 0.0) + t
         # each program line's time counted once, at its first stream line
         seen, own = set(), []
         for l in lines:

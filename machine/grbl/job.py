@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from machine.grbl.program import GRBL_RESET_MODAL, StreamLine, stream_lines
+from machine.grbl.program import GRBL_RESET_MODAL, StreamLine, stream_groups
 from machine.grbl.state import COORD_CODES, MachineState, program_setup, unset_axes
 from machine.grbl.words import Format
 
@@ -29,6 +29,7 @@ class Job:
     notices: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)  # say so before moving
     entities: list = field(default_factory=list)
+    groups: list = field(default_factory=list)  # (entity, its lines) in stream order: stream_groups
 
 
 def machine_at_zero() -> MachineState:
@@ -77,10 +78,11 @@ def build_job(path, config, state: MachineState, *, numbered: bool = False, fram
     src = text.removeprefix("\ufeff").split("\n")
     job = Job([], entities=program.entities)
     has_nurbs = any(isinstance(e, Nurbs) for e in program.entities)
-    job.lines = list(stream_lines(program.entities, config, start_mm=state.mpos_mm,
-                                  fmt_=Format(tuple(frame_mm or state.wco_mm), config.blu_mm / 10.0, numbered),
-                                  modal=state.modal, g53_lines=_g53_in(src, program.entities), notices=job.notices,
-                                  ipo_from_start=has_nurbs))
+    job.groups = list(stream_groups(program.entities, config, start_mm=state.mpos_mm,
+                                    fmt_=Format(tuple(frame_mm or state.wco_mm), config.blu_mm / 10.0, numbered),
+                                    modal=state.modal, g53_lines=_g53_in(src, program.entities),
+                                    notices=job.notices, ipo_from_start=has_nurbs))
+    job.lines = [line for _, lines in job.groups for line in lines]
     unset = unset_axes(lambda s: iter_entities(iter(src), str(path), setup=s), setup)
     if unset:
         first, axes = unset[0]

@@ -306,16 +306,24 @@ def preamble(modal: tuple[str, ...]) -> str:
 GRBL_RESET_MODAL = ("G0", "G54", "G17", "G21", "G90", "G94", "M5", "M9", "T0", "F0", "S0")
 
 
-def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), fmt_: Format | None = None,
-                 modal: tuple[str, ...] = GRBL_RESET_MODAL, g53_lines: frozenset = frozenset(),
-                 merge_tol_mm: float | None = None,
-                 plan: Callable[[Iterable, tuple], Iterator] | None = None,
-                 notices: list[str] | None = None, ipo_from_start: bool = False) -> Iterator[StreamLine]:
-    """The stream for a program's entities, interpreted from `start_mm` (machine
-    coordinates, where grbl stands) with grbl's parser in the `modal` state ($G words).
-    `fmt_` says the work frame and precision; `g53_lines` the (file, line) of the source
-    lines that are G53 moves (file None for the program itself, as in the entities). `plan(entities, start_mm)` replaces the IPO (tests only); `notices` collects
-    what grbl cannot do and vcnc did instead.
+def stream_lines(entities: Iterable, config, **options) -> Iterator[StreamLine]:
+    """The stream for a program's entities (stream_groups' lines, one after the other)."""
+    for _, lines in stream_groups(entities, config, **options):
+        yield from lines
+
+
+def stream_groups(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), fmt_: Format | None = None,
+                  modal: tuple[str, ...] = GRBL_RESET_MODAL, g53_lines: frozenset = frozenset(),
+                  merge_tol_mm: float | None = None,
+                  plan: Callable[[Iterable, tuple], Iterator] | None = None,
+                  notices: list[str] | None = None, ipo_from_start: bool = False
+                  ) -> Iterator[tuple[object, list[StreamLine]]]:
+    """(entity, its lines) in stream order (entity None for the preamble): the stream for a
+    program's entities, interpreted from `start_mm` (machine coordinates, where grbl stands)
+    with grbl's parser in the `modal` state ($G words). `fmt_` says the work frame and
+    precision; `g53_lines` the (file, line) of the source lines that are G53 moves (file
+    None for the program itself, as in the entities). `plan(entities, start_mm)` replaces the
+    IPO (tests only); `notices` collects what grbl cannot do and vcnc did instead.
 
     The IPO runs in step with the stream, so its look-ahead sees every later entity, and
     memory stays bounded. It starts at the first NURBS, from standstill there, unless
@@ -332,20 +340,20 @@ def stream_lines(entities: Iterable, config, *, start_mm=(0.0, 0.0, 0.0), fmt_: 
     ents, for_ipo = itertools.tee(entities)
     cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos))) if ipo_from_start else None
     if pre := preamble(modal):
-        yield b.emit(0, pre)
+        yield None, [b.emit(0, pre)]
     for e in ents:
         if cursor is None and isinstance(e, Nurbs):
             cursor = _PeriodCursor(iter((plan or _plan_with_ipo(config))(for_ipo, b.pos)))
         if isinstance(e, Rapid):
-            yield from b.straight(e.line, "G0", e.end, g53=(e.file, e.line) in g53_lines)
+            yield e, b.straight(e.line, "G0", e.end, g53=(e.file, e.line) in g53_lines)
         elif isinstance(e, Line):
-            yield from b.straight(e.line, "G1", e.end, e.feed_mm_s * 60.0, g53=(e.file, e.line) in g53_lines)
+            yield e, b.straight(e.line, "G1", e.end, e.feed_mm_s * 60.0, g53=(e.file, e.line) in g53_lines)
         elif isinstance(e, Arc):
-            yield from b.arc(e)
+            yield e, b.arc(e)
         elif isinstance(e, Nurbs):
-            yield from b.nurbs(e, *cursor.take(e.line))
+            yield e, b.nurbs(e, *cursor.take(e.line))
         else:
-            yield from b.event(e, notices)
+            yield e, b.event(e, notices)
         if cursor is None:
             next(for_ipo, None)  # keep the tee's buffer empty while the IPO is not running
         else:

@@ -71,6 +71,8 @@ def machine_file(tmp_path: Path, pattern: str, value) -> Path:
         data["finishing"] = dict(FINISHING)
     if key.startswith("stock."):
         data["stock"] = {}
+    if key.startswith("grbl."):
+        data["grbl"] = {}
     if key == "servo.time_constant_s" and value > 0:
         data["servo"]["model"] = "lag"
     if key == "servo.kp_1_s" and value > 0:

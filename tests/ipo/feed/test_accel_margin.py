@@ -7,8 +7,7 @@ positions, 1.5 % over the planner's own target). The checks here are against bru
 (a grid search of the two-sample programme) and direct evaluation of the limits.
 
 S-curve mode: the jerk by finite differences on random cubics (the curvature's own rate of
-change), the share of an acceleration step that the third difference sees, and the reach
-over which caps are spread against a brute-force moving average.
+change) and the share of an acceleration step that the third difference sees.
 """
 from __future__ import annotations
 
@@ -20,10 +19,9 @@ import pytest
 from ipo.feed import interval_lp as lp
 from ipo.feed import lookahead as la
 from ipo.feed.planner import ACCEL_USE, plan_periods
-from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap, spread_min
+from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap
 from ipo.contracts import PeriodBatch
 from ipo.feed.sampling import nurbs_table
-from ipo.feed.scurve import MovingAverage
 from tests.ipo.feed.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
 from tests.ipo.feed.test_nurbs_corners import random_cubic
 
@@ -141,46 +139,3 @@ def test_acceleration_step_shows_as_three_quarters_in_the_jerk():
         peaks.append(np.abs(np.diff(p, 3)).max() / T**3)
     assert max(peaks) == pytest.approx(STEP_JERK_SHARE * da / T, rel=1e-9)
     assert min(peaks) == pytest.approx(0.5 * da / T, rel=1e-9)
-
-
-def _filtered_speed_at(s_cap, v_cap, reach, m, accel, v_top=100.0, T=1e-3):
-    """Largest output speed of periods touching s_cap, when the planned profile is the
-    fastest one (accel) held to v_cap within +- reach of s_cap, through an m-period moving
-    average; brute force in time steps of T / 50."""
-    dt = T / 50
-    s, v, out = 0.0, 0.0, [0.0]
-    t_next, k = T, 0
-    while s < s_cap + reach + 60.0:
-        d = max(abs(s - s_cap) - reach, 0.0) if s < s_cap + reach else 0.0
-        limit = np.sqrt(v_cap**2 + 2 * accel * d) if s < s_cap - reach else v_cap if s <= s_cap + reach else v_top
-        limit = min(limit, v_top)
-        v = min(v + accel * dt, limit)
-        s += v * dt
-        k += 1
-        if k % 50 == 0:
-            out.append(s)
-    planned = np.array(out)
-    fir = MovingAverage(m)
-    s_f = np.cumsum(fir.filter(np.diff(planned), run_out=False))
-    speed = np.diff(s_f, prepend=0.0) / T
-    touch = (np.concatenate([[0.0], s_f[:-1]]) <= s_cap + 1e-12) & (s_f >= s_cap - 1e-12)
-    return speed[touch].max()
-
-
-@pytest.mark.parametrize("v_cap", [5.0, 20.0, 60.0])
-def test_spread_reach_covers_what_the_filter_mixes_in(v_cap):
-    """limits.spread_min's reach: a cap held over it, the fastest profile around it (braking
-    into it from 100 mm/s at 866 mm/s^2, leaving it as fast) and a 20-period moving
-    average: the output crosses the capped point at no more than the cap; with half the
-    reach it goes over at 20 and 60 mm/s (the bound is near tight there)."""
-    T, m, accel = 1e-3, 20, 866.0
-    s = np.linspace(0.0, 20.0, 200001)
-    cap = np.full(len(s), 1e300)
-    k = len(s) // 2
-    cap[k] = v_cap**2
-    spread = spread_min(s, cap, m * T, T, accel)
-    held = s[spread < 1e300]
-    reach = float(min(s[k] - held[0], held[-1] - s[k]))
-    assert _filtered_speed_at(10.0, v_cap, reach, m, accel) <= v_cap * (1 + 1e-9)
-    if v_cap >= 20.0:
-        assert _filtered_speed_at(10.0, v_cap, reach / 2, m, accel) > v_cap * 1.005

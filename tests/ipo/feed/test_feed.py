@@ -308,18 +308,6 @@ def test_corner_blend_next_to_an_arc_stays_within_p():
     assert_within_limits(pos, start)
 
 
-def test_moving_average_keeps_the_distance_and_ramps():
-    from ipo.feed.scurve import MovingAverage
-
-    f = MovingAverage.for_limits(np.array([1000.0] * 3), np.array([1e5] * 3), 1e-3)
-    assert f.m == 10
-    steps = np.r_[np.linspace(0, 0.05, 50), np.full(100, 0.05), np.linspace(0.05, 0, 50)]
-    out = np.concatenate([f.filter(steps[:70], run_out=False), f.filter(steps[70:], run_out=True)])
-    assert len(out) == len(steps) + 9
-    assert out.sum() == pytest.approx(steps.sum(), rel=1e-12)
-    assert np.all(np.abs(np.diff(out, 2)) <= np.abs(np.diff(steps, 2)).max() + 1e-15)
-
-
 # An inch G18 arc that meets the next straight at 16 deg (g1_stellabee1.ngc, source line 19946):
 # the arc's end and its corner blend met with a tangent step of 4e-6 (the arc's spiral term),
 # which halved the axis limits there while the speed stayed at the full-limit curvature cap.

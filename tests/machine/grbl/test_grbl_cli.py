@@ -50,8 +50,8 @@ def test_a_clean_stream_sends_exactly_the_dry_run_lines(tmp_path):
                                         "--ledger", str(tmp_path / "l")])
     assert res.exit_code == 0, res.output
     assert d.received[:4] == ["$$", "$I", "$G", "$#"] and d.received[4:] == dry
-    # not a terminal: plain status lines, with the job time from vcnc's planner
-    assert "job time (vcnc's planner)" in res.output and "acknowledged" in res.output
+    # not a terminal: plain status lines, with the job time from the grbl twin of the board's $$
+    assert "job time (grbl 1.1 twin: $$ of the board, 115200 baud)" in res.output and "acknowledged" in res.output
     assert "remaining ~" in res.output
     assert d.max_rx_fill <= 127 and d.rx_overflow == 0
 

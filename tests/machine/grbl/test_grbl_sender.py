@@ -59,6 +59,19 @@ def test_check_mode_runs_every_line_and_moves_nothing():
     assert d.executed == [] and d.received.count("$C") == 2 and d.state == "Idle"
 
 
+def test_settings_saved_from_the_board_run_the_grbl_twin(tmp_path):
+    """`--save` keeps the $$ printout as grbl printed it; the twin reads it (rates from the board)."""
+    from ipo.grbl_settings import read_dump
+
+    d = GrblDouble(settings={**DEFAULT_SETTINGS, 110: 1234.5, 120: 77.0})
+    with PtyServer(d).start() as srv:
+        res = _grbl(["settings", "--save", str(tmp_path / "board.txt")], srv.port)
+    assert res.exit_code == 0, res.output
+    saved = read_dump(tmp_path / "board.txt")
+    assert saved.max_rate_mm_min[0] == 1234.5 and saved.accel_mm_s2[0] == 77.0
+    assert all(line.startswith("$") for line in (tmp_path / "board.txt").read_text().splitlines())
+
+
 def test_settings_apply_machine_writes_the_machine_files_values_after_confirming():
     cfg = default_config()
     settings = {**DEFAULT_SETTINGS, 110: 500.0, 121: 10.0}
@@ -88,12 +101,11 @@ def test_job_time_of_one_line_is_the_trapezoid_time():
 
     from ipr.entities import Line
     from machine.grbl.estimate import JobEstimate
-    from machine.grbl.program import stream_lines
+    from machine.grbl.program import stream_groups
 
     cfg = dataclasses.replace(default_config(), accel_mode="trapezoid")
     ents = [Line(1, (0.0, 0.0, 0.0), (100.0, 0.0, 0.0), 10.0)]
-    lines = list(stream_lines(ents, cfg))
-    est = JobEstimate.plan(ents, lines, cfg, (0.0, 0.0, 0.0))
+    est = JobEstimate.plan(stream_groups(ents, cfg), cfg, (0.0, 0.0, 0.0))
     a = min(ax.max_accel_mm_s2 for ax in cfg.axes)
     assert est.total_s == pytest.approx(100.0 / 10.0 + 10.0 / a, abs=3 * cfg.period_s)
     assert est.remaining_s(1) == est.total_s and est.remaining_s(2) == 0.0

@@ -1,0 +1,350 @@
+"""S-curve mode over a look-ahead window: anchors, their speeds, and the segments between them.
+
+Input: the window's samples (arc length s, unit tangent t, curvature vector kv), the
+acceleration-limited profile x_acc = v^2 the look-ahead planned under every cap, the axis
+limits, the speed the machine has at the first sample (with zero acceleration: the window
+always starts at an anchor) and the v^2 it must end with.
+
+1. Anchors: the first and last sample, every stop, both ends of every valley of x_acc (a run of
+   equal x_acc lower than the samples either side: a cap holds the speed down there) and of
+   every plateau of x_acc that is not a peak, and the
+   samples where the path changes between straight and curved (straights shorter than
+   `straight_min_mm` between curved pieces count as curved). Speeds at anchors: at most
+   sqrt(x_acc), acceleration zero. x_acc is first held to what the curvature allows with no
+   path acceleration, |kv_i| v^2 <= A_i (the look-ahead may ride the curvature cap with some).
+2. Path limits of each gap between anchors: straight, A_i / |t_i| and J_i / |t_i|; curved,
+   the same acceleration with TANGENTIAL_JERK_SHARE of the jerk; each times a scale that starts
+   at 1 (step 4 lowers it).
+3. Anchor speeds by a backward and a forward pass (jerk_profile.reach), then each gap's peak
+   speed (jerk_profile.peak_speed, at most the highest sqrt(x_acc) inside it).
+4. Checks at every sample of every gap, with the segment's own speed, acceleration and jerk
+   there: v^2 <= x_acc; |t_i a + kv_i v^2| <= A_i; |t_i j| + 3 |kv_i| v |a| + |kv_i'| v^3 <= J_i
+   (kv' from the neighbouring samples; at a piece joint where the curvature steps the first
+   two within J_i / 2, the caps of ipo.feed.limits holding the step within the other half).
+   A speed over x_acc lowers the peak where a little (_PEAK_GIVE) is enough, else makes the
+   worst sample an anchor; an axis over its limit lowers the gap's scale. Then back to 3,
+   until every gap passes.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ipo.feed.jerk_profile import (TANGENTIAL_JERK_SHARE, peak_speed, phases, reach, reach_down,
+                                   state, time_at, transition_distance)
+
+_ROUNDS = 40  # of steps 3 and 4; each round fixes something, and scales only fall; after half
+# of them a gap that still fails has every sample as an anchor
+_SCALE_STEP = 0.7
+# a peak lowered by more than this share to stay under x_acc makes the worst sample an anchor instead
+_PEAK_GIVE = 0.02
+_SLACK = 1e-9
+_JOINT_MM = 1e-9  # samples closer than this are the two sides of one piece joint
+_STANDSTILL = 1e-9  # mm/s
+
+
+@njit(cache=True)
+def _curved_intervals(s, t, kv, straight_min_mm):
+    """Per sample interval: the path curves there (or its tangent turns), with straight runs
+    shorter than straight_min_mm between curved ones counted as curved."""
+    n = s.shape[0]
+    curved = np.zeros(n - 1, np.bool_)
+    for k in range(n - 1):
+        for i in range(3):
+            if kv[k, i] != 0.0 or kv[k + 1, i] != 0.0 or t[k, i] != t[k + 1, i]:
+                curved[k] = True
+    k = 0
+    while k < n - 1:
+        if curved[k]:
+            k += 1
+            continue
+        e = k
+        while e < n - 1 and not curved[e]:
+            e += 1
+        if k > 0 and e < n - 1 and s[e] - s[k] < straight_min_mm:
+            curved[k:e] = True
+        k = e
+    return curved
+
+
+@njit(cache=True)
+def _anchors(s, x, curved):
+    """Step 1 without the first and last sample's special speeds: which samples are anchors."""
+    n = s.shape[0]
+    anchor = np.zeros(n, np.bool_)
+    anchor[0] = anchor[n - 1] = True
+    for k in range(1, n - 1):
+        if x[k] <= 0.0 or curved[k - 1] != curved[k]:
+            anchor[k] = True
+    k = 0
+    while k < n:
+        e = k
+        while e + 1 < n and abs(x[e + 1] - x[k]) <= 1e-9 * max(x[k], 1e-12):
+            e += 1
+        lower_before = k == 0 or x[k - 1] > x[k]
+        lower_after = e == n - 1 or x[e + 1] > x[k]
+        peak = (k == 0 or x[k - 1] < x[k]) and (e == n - 1 or x[e + 1] < x[k])
+        if (lower_before and lower_after) or (s[e] > s[k] and not peak):
+            anchor[k] = anchor[e] = True  # a valley, or a plateau below its neighbours on one side
+        k = e + 1
+    return anchor
+
+
+@njit(cache=True)
+def _nominal(t, kv, lo, hi, a_axis, j_axis, curved):
+    """Step 2: the gap's path acceleration and jerk limits before scaling."""
+    a = 1e300
+    j = 1e300
+    share = TANGENTIAL_JERK_SHARE if curved else 1.0
+    for k in range(lo, hi + 1):
+        for i in range(3):
+            ti = abs(t[k, i])
+            if ti > 1e-12:
+                a = min(a, a_axis[i] / ti)
+                j = min(j, share * j_axis[i] / ti)
+    return a, j
+
+
+@njit(cache=True)
+def _step(kv, k, other, i):
+    """|kv_i| step where sample k meets the sample `other` at the same arc length (a piece
+    joint), 0 where there is none."""
+    if other < 0 or other >= kv.shape[0]:
+        return 0.0
+    return abs(kv[other, i] - kv[k, i])
+
+
+@njit(cache=True)
+def _rate(s, kv, k, i):
+    """|dkv_i/ds| at sample k from the neighbouring samples along the path (the larger side;
+    a piece joint, two samples at one arc length, is a step, not a rate)."""
+    r = 0.0
+    if k > 0 and s[k] - s[k - 1] > _JOINT_MM:
+        r = abs(kv[k, i] - kv[k - 1, i]) / (s[k] - s[k - 1])
+    if k + 1 < s.shape[0] and s[k + 1] - s[k] > _JOINT_MM:
+        r = max(r, abs(kv[k + 1, i] - kv[k, i]) / (s[k + 1] - s[k]))
+    return r
+
+
+@njit(cache=True)
+def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
+    """Some axis over its acceleration or its jerk with the geometry of sample k and the state
+    v, acc, jk (speed, path acceleration and jerk); step: the curvature step per axis where
+    sample k is a piece joint."""
+    for i in range(3):
+        if abs(t[k, i] * acc + kv[k, i] * v * v) > a_axis[i] * (1.0 + _SLACK):
+            return True
+        # axis jerk t_i j + 3 kv_i v a + kv_i' v^3: the caps hold the last term within half
+        # of J_i, and a step where pieces meet too, whose jerk the periods around it see
+        # together with the jerk of both sides: there the rest keeps to the other half
+        if step[i] > 0.0:
+            budget = 0.5 * j_axis[i]
+        else:
+            budget = j_axis[i] - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
+        extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
+        if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
+    """Step 4 for one gap: (worst sample over x_acc or -1, and whether an axis is over). The
+    axes are checked at every sample and, with the geometry of the samples either side, where
+    each phase starts (the acceleration peaks between samples)."""
+    length = s[hi] - s[lo]
+    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    worst, worst_ratio = -1, 1.0
+    axis_over = False
+    no_step = np.zeros(3)
+    step = np.zeros(3)
+    for k in range(lo, hi + 1):
+        d = min(max(s[k] - s[lo], 0.0), length)
+        _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
+        if k == hi:
+            jk = jj[6]  # the end of the last ramp
+        if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
+            r = v * v / max(x[k], 1e-300)
+            if r > worst_ratio:
+                worst, worst_ratio = k, r
+        other = -1  # the sample across a piece joint at a gap's end
+        if k == lo and k > 0 and s[k] - s[k - 1] <= _JOINT_MM:
+            other = k - 1
+        elif k == hi and k + 1 < s.shape[0] and s[k + 1] - s[k] <= _JOINT_MM:
+            other = k + 1
+        for i in range(3):
+            step[i] = _step(kv, k, other, i)
+        axis_over |= _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step)
+    k = lo
+    for q in range(1, 7):
+        d = ss[q]
+        if not 0.0 < d < length:
+            continue
+        while k + 1 < hi and s[k + 1] - s[lo] < d:
+            k += 1
+        for jq in (jj[q - 1], jj[q]):
+            axis_over |= _axes_over(s, t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+            axis_over |= _axes_over(s, t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+    return worst, axis_over
+
+
+@njit(cache=True)
+def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
+    """Make the worst sample of every run of samples where the segment passes above x_acc an
+    anchor; whether any was new."""
+    length = s[hi] - s[lo]
+    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    new = False
+    best, best_r = -1, 1.0
+    for k in range(lo, hi + 2):
+        r = 1.0
+        if k <= hi:
+            v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+            if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
+                r = v * v / max(x[k], 1e-300)
+        if r > best_r:
+            best, best_r = k, r
+        elif r <= 1.0 and best >= 0:
+            new |= not anchor[best]
+            anchor[best] = True
+            best, best_r = -1, 1.0
+    return new
+
+
+@njit(cache=True)
+def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
+    """Anchors (sample indices), their speeds, and per gap the peak speed and the path
+    acceleration and jerk limits; converged is False if the rounds ran out."""
+    n = s.shape[0]
+    x = x.copy()
+    for k in range(n):  # the look-ahead may ride a curvature cap with the help of s'' != 0
+        for i in range(3):
+            if kv[k, i] != 0.0:
+                x[k] = min(x[k], (1.0 - 1e-6) * a_axis[i] / abs(kv[k, i]))
+    curved = _curved_intervals(s, t, kv, straight_min_mm)
+    anchor = _anchors(s, x, curved)
+    scale = np.ones(max(n - 1, 1))
+    # the last gap checked clean from each sample: (end, start and end speed, limits) -> its peak
+    ok_hi = np.full(n, -1, np.int64)
+    ok_key = np.zeros((n, 4))
+    ok_vp = np.zeros(n)
+    converged = False
+    idx = np.nonzero(anchor)[0]
+    m = idx.shape[0]
+    w = np.zeros(m)
+    vp = np.zeros(max(m - 1, 0))
+    ag = np.zeros(max(m - 1, 0))
+    jg = np.zeros(max(m - 1, 0))
+    for rnd in range(_ROUNDS):
+        idx = np.nonzero(anchor)[0]
+        m = idx.shape[0]
+        ag = np.zeros(m - 1)
+        jg = np.zeros(m - 1)
+        cv = np.zeros(m - 1, np.bool_)
+        for g in range(m - 1):
+            lo, hi = idx[g], idx[g + 1]
+            cv[g] = curved[lo] if hi > lo else False
+            a, j = _nominal(t, kv, lo, hi, a_axis, j_axis, cv[g])
+            sc = scale[lo:hi].min() if hi > lo else 1.0
+            ag[g], jg[g] = a * sc, j * sc
+        # 3. anchor speeds, backward then forward
+        u = np.sqrt(np.maximum(x[idx], 0.0))
+        u[m - 1] = min(u[m - 1], np.sqrt(max(x_end, 0.0)))
+        vb = np.empty(m)
+        vb[m - 1] = u[m - 1]
+        for g in range(m - 2, -1, -1):
+            vb[g] = min(u[g], reach(vb[g + 1], s[idx[g + 1]] - s[idx[g]], ag[g], jg[g]))
+        w = np.empty(m)
+        w[0] = v0
+        for g in range(m - 1):
+            length = s[idx[g + 1]] - s[idx[g]]
+            w[g + 1] = min(vb[g + 1], reach(w[g], length, ag[g], jg[g]))
+            if w[g] > w[g + 1] and transition_distance(w[g], w[g + 1], ag[g], jg[g]) > length:
+                w[g + 1] = reach_down(w[g], length, ag[g], jg[g])  # braking from above the bound
+        # 4. peaks and checks
+        vp = np.zeros(m - 1)
+        changed = False
+        for g in range(m - 1):
+            lo, hi = idx[g], idx[g + 1]
+            length = s[hi] - s[lo]
+            base = max(w[g], w[g + 1])
+            if length <= 0.0:
+                vp[g] = base
+                continue
+            if ok_hi[lo] == hi and ok_key[lo, 0] == w[g] and ok_key[lo, 1] == w[g + 1] and \
+                    ok_key[lo, 2] == ag[g] and ok_key[lo, 3] == jg[g]:
+                vp[g] = ok_vp[lo]
+                continue
+            top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), base)
+            p = peak_speed(w[g], w[g + 1], length, top, ag[g], jg[g])
+            worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis, cv[g])
+            if worst >= 0 and p > base:
+                low, high = base, p
+                for _b in range(24):
+                    mid = 0.5 * (low + high)
+                    if _check(s, t, kv, x, lo, hi, w[g], mid, w[g + 1], ag[g], jg[g], a_axis, j_axis,
+                              cv[g])[0] < 0:
+                        low = mid
+                    else:
+                        high = mid
+                if low >= (1.0 - _PEAK_GIVE) * p:  # a slightly lower peak clears it
+                    p = low
+                    worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis,
+                                         cv[g])
+            vp[g] = p
+            if (worst >= 0 or over) and rnd >= _ROUNDS // 2:
+                anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample
+                changed = True
+            elif worst >= 0:
+                changed |= _anchor_peaks(s, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], anchor)
+            if over:
+                scale[lo:hi] *= _SCALE_STEP
+                changed = True
+            elif worst < 0:
+                ok_hi[lo] = hi
+                ok_key[lo, 0], ok_key[lo, 1], ok_key[lo, 2], ok_key[lo, 3] = w[g], w[g + 1], ag[g], jg[g]
+                ok_vp[lo] = p
+        if not changed:
+            converged = True
+            break
+    return idx, w, vp, ag, jg, converged
+
+
+@njit(cache=True)
+def durations(s, idx, w, vp, ag, jg):
+    """Duration of each gap's segment."""
+    m = idx.shape[0]
+    out = np.zeros(m - 1)
+    for g in range(m - 1):
+        length = s[idx[g + 1]] - s[idx[g]]
+        if length > 0.0:
+            out[g] = phases(w[g], vp[g], w[g + 1], length, ag[g], jg[g])[0][7]
+    return out
+
+
+@njit(cache=True)
+def arc_lengths_at(times, s, idx, w, vp, ag, jg, t_start):
+    """Arc length at each time (from the first anchor; times ascending within the gaps'
+    total) and the gap each falls in; t_start[g] is when gap g begins."""
+    out = np.empty(times.shape[0])
+    gap = np.empty(times.shape[0], np.int64)
+    m = idx.shape[0]
+    g = 0
+    while g + 1 < m - 1 and t_start[g + 1] <= times[0]:
+        g += 1
+    length = s[idx[g + 1]] - s[idx[g]]
+    tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+    for q in range(times.shape[0]):
+        tq = times[q]
+        if g + 1 < m - 1 and t_start[g + 1] <= tq:
+            while g + 1 < m - 1 and t_start[g + 1] <= tq:
+                g += 1
+            length = s[idx[g + 1]] - s[idx[g]]
+            tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+        if length <= 0.0:
+            out[q] = s[idx[g + 1]]
+        else:
+            d = state(tt, ss, vv, aa, jj, tq - t_start[g])[0]
+            out[q] = s[idx[g]] + min(max(d, 0.0), length)
+        gap[q] = g
+    return out, gap
