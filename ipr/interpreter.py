@@ -29,6 +29,7 @@ from ipr.shapes import MARK, expression_block, split_parts, template_for
 from ipr.syntax import LineSyntaxError, parse_line_columns
 
 MAX_VALUE = 1e31   # the fast path reads at most 30 digits; expressions may go further
+_NEW = object()    # a shape without a plan yet
 
 
 def spec_letter(spec: BlockSpec, word: int) -> str:
@@ -134,27 +135,33 @@ class Interpreter:
     def run(self, lines: Iterable[str], first: int = 1) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
         returns the number of the last line read."""
-        state, plans, append, doubt = self.state, self._plans, self.out.append, self.knock_on.doubt
+        if self.done:
+            return first - 1
+        state, get, append, doubt = self.state, self._plans.get, self.out.append, self.knock_on.doubt
+        started = self._started
         n = first - 1
         for n, text in enumerate(lines, first):
-            if self.done:
-                return n - 1
             parts = split_parts(text)
             shape = MARK.join(parts[0::2])
-            plan = plans[shape] if shape in plans else self._plan(shape)
-            if MARK in text:   # the shapes' slot marker itself: such a line takes the full grammar
-                plan = None
+            plan = get(shape, _NEW)
+            if plan is _NEW:
+                plan = self._plan(shape)
             try:
-                if plan is None:
+                if plan is None or MARK in text:   # the shapes' slot marker itself: the full grammar
                     self._full(n, text)
-                elif plan[2] is None or not plan[2](parts, n, state, append):
-                    self._template(plan, parts, n, text)
-                else:
-                    self._started = True
+                elif plan[2] is not None and plan[2](parts, n, state, append):
+                    if not started:
+                        self._started = started = True
                     if doubt:
                         self.knock_on.settled(plan[1])
+                    continue   # a plain move never ends the program
+                else:
+                    self._template(plan, parts, n, text)
             except BlockError as err:
                 self._fail(err, n, text)
+            started = self._started
+            if self.done:
+                return n
         return n
 
     def _template(self, plan, parts: list[str], line: int, text: str) -> None:

@@ -24,7 +24,7 @@ from ipr.entities import set_file
 from ipr.errors import BlockError
 from ipr.expressions import evaluate
 from ipr.oword import OWord
-from ipr.source import Source
+from ipr.source import Source, read_text
 
 STRETCH_LINES = 4096   # lines handed to the interpreter at a time (iter_entities yields in between)
 _BRANCHES = ("elseif", "else", "endif")
@@ -61,7 +61,7 @@ class Frame:
 class Executor:
     """Drives an ipr.interpreter.Interpreter over a Source with a program counter."""
 
-    def __init__(self, interp, source: Source):
+    def __init__(self, interp, source: Source, texts: dict[Path, str] | None = None):
         self.interp = interp
         self.setup = interp.setup
         self.params = interp.state.params
@@ -74,6 +74,7 @@ class Executor:
         self.last_line = 0
         self.finished = False
         self._files: dict[Path, Source] = {}
+        self._texts = {} if texts is None else texts   # subroutine file -> text, possibly shared
         folder = None if source.file.startswith("<") else Path(source.file).resolve().parent
         self.search_dirs = [d for d in [folder, *map(Path, self.setup.subroutine_path)] if d is not None]
 
@@ -326,9 +327,9 @@ class Executor:
 
     def _file(self, path: Path) -> Source:
         if path not in self._files:
-            with open(path, "rb") as f:
-                text = f.read().decode("utf-8", "replace")
-            self._files[path] = Source(str(path), text.removeprefix("\ufeff").split("\n"))
+            if path not in self._texts:
+                self._texts[path] = read_text(path)
+            self._files[path] = Source(str(path), self._texts[path].split("\n"))
         return self._files[path]
 
 

@@ -23,6 +23,12 @@ _READ_LINES = 1024
 _NO_OWORD = None
 
 
+def read_text(path) -> str:
+    """A program file's text: UTF-8 (undecodable bytes replaced), without a byte order mark."""
+    with open(path, "rb") as f:
+        return f.read().decode("utf-8", "replace").removeprefix("\ufeff")
+
+
 class Source:
     """One file's lines; `file` names it in diagnostics and in the entities it produces."""
 
