@@ -24,6 +24,7 @@ earlier junction; the plan is therefore near-shortest, not provably shortest.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -137,11 +138,39 @@ def _leg_junctions(points: np.ndarray, u: np.ndarray, h: np.ndarray, turn: np.nd
     return leg & ~on_arc[:-1] & ~on_arc[1:]
 
 
+class Nodes(NamedTuple):
+    """The junctions as the kernels read them (Junctions' arrays) and the span rule."""
+
+    pos: np.ndarray
+    pt: np.ndarray
+    tan: np.ndarray
+    role: np.ndarray
+    tol_mm: float
+    gap_mm: float
+
+
+class Found(NamedTuple):
+    """Per junction, the cheapest way found to it with a group open (plan_kernel's doc), and the
+    kernels' scratch arrays."""
+
+    ins: np.ndarray
+    ins_from: np.ndarray
+    ctrl: np.ndarray
+    rho: np.ndarray
+    state: np.ndarray
+    double: np.ndarray
+    curve: np.ndarray
+    path: np.ndarray
+    c: np.ndarray
+    new: np.ndarray
+
+
 @njit(cache=True)
-def _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c,
-           new):
+def _relax(j, z, q, nodes, found):
     """Test the span from junction j to junction z and take it where it makes z cheaper; whether
     the span fits (whatever it costs)."""
+    pos, pt, tan, role, tol_mm, gap_mm = nodes
+    ins, ins_from, ctrl, rho, state, double, curve, path, c, new = found
     if role[j] == ARRIVE or role[z] == LEAVE:
         return False
     lo = int(np.floor(pos[j])) + 1
@@ -164,13 +193,11 @@ def _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho
 
 
 @njit(cache=True)
-def _relax_at(g, z, group, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve,
-              path, c, new):
+def _relax_at(g, z, group, q, nodes, found):
     """_relax from every junction of position g; whether any span fits."""
     fits = False
     for j in range(group[g], group[g + 1]):
-        if _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
-                  c, new):
+        if _relax(j, z, q, nodes, found):
             fits = True
     return fits
 
@@ -198,6 +225,8 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
     path = np.empty((MAX_SPAN_POINTS + 2, 3))
     c = np.empty(3)
     new = np.empty(STATE)
+    nodes = Nodes(pos, pt, tan, role, tol_mm, gap_mm)
+    found = Found(ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
     out[0] = 0
     group = np.empty(n_nodes + 1, dtype=np.int64)  # first junction of each position
     at_group = np.empty(n_nodes, dtype=np.int64)
@@ -222,17 +251,16 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
                 ins[z] = out[vert[z]] + OPEN_COST
                 ins_from[z] = -1
                 state[z] = 0.0
-            args = (q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
             # the farthest position with a start that fits: from the previous position's, doubling
             # steps back while spans fit (or forward while they do not), then halving
             good, bad = -1, lowest - 1
             guess = min(max(reach, lowest), gk - 1)
-            if reach >= 0 and _relax_at(guess, z, group, *args):
+            if reach >= 0 and _relax_at(guess, z, group, q, nodes, found):
                 good = guess
             else:
                 step = 1
                 bad = guess
-                while bad + step < gk and not _relax_at(bad + step, z, group, *args):
+                while bad + step < gk and not _relax_at(bad + step, z, group, q, nodes, found):
                     bad += step
                     step *= 2
                 if bad + step < gk:
@@ -240,7 +268,7 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
                 else:  # the nearest few positions, one by one
                     p = gk - 1
                     while p > max(bad, gk - 1 - MAX_FAILS) and good < 0:
-                        if _relax_at(p, z, group, *args):
+                        if _relax_at(p, z, group, q, nodes, found):
                             good = p
                         p -= 1
                     bad = lowest - 1
@@ -249,14 +277,14 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
             if good == guess:
                 step = 1
                 while good - step >= lowest:
-                    if not _relax_at(good - step, z, group, *args):
+                    if not _relax_at(good - step, z, group, q, nodes, found):
                         bad = good - step
                         break
                     good -= step
                     step *= 2
             while good - bad > 1:
                 mid = (good + bad) // 2
-                if _relax_at(mid, z, group, *args):
+                if _relax_at(mid, z, group, q, nodes, found):
                     good = mid
                 else:
                     bad = mid
