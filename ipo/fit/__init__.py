@@ -7,7 +7,15 @@
 - `g01_runs`: the runs of consecutive G01 moves between corners (the bench's corpus runs).
 - `chains`: the chains of G1/G2/G3 moves a fit may replace, and which of their corners stay sharp.
 - `groups`: one chain -> the fewest blocks: sections between sharp corners, pieces fitted or kept,
-  joined into G06.2 groups with a knot of multiplicity = degree at each corner.
+  joined into G06.2 groups with a knot of multiplicity = degree at each corner (G5.2, and
+  G06.2 of degree 3..5).
+- G06.2's default, rational quadratic (conic) spans with their own knots and weights:
+  `conic` (one span between two junctions and its test), `conic_plan` (one chain -> the fewest
+  written blocks, a shortest path over the junctions, compiled), `weights` (the spans' weights
+  and knots joined into one rational quadratic B-spline), `quadratic` (the plan walked back into
+  groups and kept moves).
+- `distance`: the two-way distance between a written curve and the path it replaces, bounded
+  from above (the check of the curve as written).
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).
 
 May import: ipo.errors, ipo.nurbs, ipr, numpy, numba.
