@@ -177,11 +177,12 @@ def phase_split(path: Path, machine: Path | None, trace_dir: Path) -> tuple[dict
     import machine.controller as mc
     from ipo.config import default_config, load_config
     from ipo.feed import emission, planner
+    from ipr.interpretation import Interpretation
     from machine import drive
     from machine.trace import NpzTraceWriter
 
     clock = PhaseClock()
-    patches = [(mc, "parse_file", clock.function("parse", mc.parse_file)),
+    patches = [(Interpretation, "__iter__", clock.generator("parse", Interpretation.__iter__)),
                (mc.Controller, "check", clock.function("check", mc.Controller.check)),
                (planner.FeedPlanner, "run", clock.generator("plan", planner.FeedPlanner.run)),
                (emission.PeriodOutput, "emit", clock.generator("interpolate", emission.PeriodOutput.emit)),
