@@ -25,7 +25,7 @@ sys.path.append(str(ROOT / "tests"))  # after the repository: tests/ipo and test
 from linuxcnc_measured import measured, percent_error, twin_run  # noqa: E402
 from ipo.linuxcnc_ini import load_ini  # noqa: E402
 from ipr.entities import Dwell, Rapid  # noqa: E402
-from machine.commands.parse import path_length_mm  # noqa: E402
+from machine.program_summary import path_length_mm  # noqa: E402
 
 
 def naive_estimate_s(path: Path, ini: Path) -> float:
