@@ -20,7 +20,7 @@ from ipo.contracts import LIMIT_ACCEL
 from ipo.errors import SCURVE, IpoError
 from ipo.feed import jerk_plan
 from ipo.feed import lookahead as la
-from ipo.feed.jerk_profile import TANGENTIAL_JERK_SHARE, transition_distance
+from ipo.feed.jerk_profile import transition_distance
 
 _STANDSTILL_X = 1e-12
 _STANDSTILL_V = 1e-6
@@ -28,6 +28,9 @@ _STANDSTILL_V = 1e-6
 # its share of the jerk) rather than as a segment of its own with zero acceleration at both
 # ends (a polyline's micron remnants between blends)
 STRAIGHT_MIN_MM = 0.5
+# the share of the axis jerk a curved gap is taken to keep when judging how far before a
+# window's end its plan still depends on what follows (a longer reach commits less)
+REACH_JERK_SHARE = 0.5
 
 
 class Segments(NamedTuple):
@@ -51,7 +54,7 @@ def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segmen
 def stop_reach_mm(v_top: float, a_axis: np.ndarray, j_axis: np.ndarray) -> float:
     """Path length in which the machine stops from v_top with the smallest path limits a curve
     leaves it: how far before a window's end its plan still depends on what follows."""
-    return transition_distance(v_top, 0.0, float(a_axis.min()), TANGENTIAL_JERK_SHARE * float(j_axis.min())) + 1e-3
+    return transition_distance(v_top, 0.0, float(a_axis.min()), REACH_JERK_SHARE * float(j_axis.min())) + 1e-3
 
 
 def period_limits(sv: np.ndarray, s_prev: float, period_s: float, s: np.ndarray, cap: np.ndarray,
@@ -125,3 +128,4 @@ def run(planner, win, output, final: bool) -> Iterator:
             return
     if final and win.samples is not None and len(win.samples) <= 1:
         win.reset()
+
