@@ -43,9 +43,9 @@ class Segments(NamedTuple):
     jg: np.ndarray
 
 
-def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segments:
+def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float, line: int) -> Segments:
     """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
-    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM)
+    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM, period_s)
     if not ok:
         raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
     return Segments(idx, w, vp, ag, jg)
@@ -99,7 +99,8 @@ def run(planner, win, output, final: bool) -> Iterator:
         x = la.plan(smp.s, smp.t, smp.kv, cap, planner.a_max, planner._ascale(len(smp), cap), win.x0_v2, 0.0)
         x[x < _STANDSTILL_X] = 0.0
         line = int(win.pieces.line[smp.piece[0] - win.piece_base])
-        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)), line)
+        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)),
+                          planner.T, line)
         m = len(seg.idx)
         if final:
             commit = m - 1
@@ -128,4 +129,3 @@ def run(planner, win, output, final: bool) -> Iterator:
             return
     if final and win.samples is not None and len(win.samples) <= 1:
         win.reset()
-
