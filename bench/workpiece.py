@@ -2,9 +2,11 @@
 
 Per program, in one process and one machine state: the run bare (plan, interpolate, drive: its wall and
 CPU time), then the same run with the Workpiece attached as a drive sink; the removal's own wall and
-CPU time are measured inside its `write` (so the ratio removal / bare run is free of start-up and of
-the other sinks), with the nodes evaluated per second and per period, and the Z-map's memory (heights
-float32 + lines int32 + tile maxima) beside the process's peak RSS. finish_g01 and finish_nurbs cut the
+CPU time are measured inside its `write`, `event` and `surface` (so the ratio removal / bare run is free
+of start-up and of the other sinks; the CPU time is the process's, both threads), with the nodes cut per
+second of removal (a node lowered by a batch counts once), the envelopes evaluated per period (bounds and
+exact ones), and the Z-map's memory (heights float32 + lines int32 + tile maxima) beside the process's
+peak RSS. finish_g01 and finish_nurbs cut the
 mould panel (programs/make_programs.py: z = sqrt(150^2 - (x-60)^2 - (y-20)^2) - 150
 + 6 exp(-((x-85)^2 + (y-25)^2)/3200)), whose exact surface is the reference: the deviation along the
 passes (rows under pass centres) gives the facet depth and spacing; g1_lhchips4 (LinuxCNC corpus, 1/4"
@@ -55,12 +57,13 @@ def cut(path, config, stock, tool=None, grid_um=None):
     ctl.sinks, ctl.on_event = [wp], wp.event
     r1 = ctl.run(program)
     assert r0.state == r1.state == "completed", (r0.fault, r1.fault)
-    return r0, bare_cpu, wp, text
+    return r0, bare_cpu, wp, text, wp.surface()
 
 
 def program_rows(quick: bool) -> None:
     from ipo.config import default_config, load_config
     from machine.workpiece.measure import profile, profile_figures
+    from machine.workpiece.zmap import available_cpus
 
     finish = load_config(ROOT / "programs" / "finish_machine.toml")
     chips = dataclasses.replace(default_config(), tools={1: dataclasses.replace(default_config().tools[1],
@@ -72,18 +75,18 @@ def program_rows(quick: bool) -> None:
         cases.append(("g1_lhchips4.ngc", CORPUS / "g1_lhchips4.ngc", chips, CHIPS_STOCK, 1))
     else:
         print(f"g1_lhchips4.ngc skipped: {CORPUS} not found")
+    print(f"threads: {available_cpus()}")
     print(f"{'program':16s} {'periods':>8s} {'run s':>7s} {'removal s':>9s} {'ratio':>6s} {'run cpu':>7s} "
-          f"{'rem cpu':>7s} {'nodes/s':>9s} {'nodes/per':>9s} {'zmap MB':>7s} {'RSS MB':>7s}  bar <= {RATIO_BAR:g}x")
+          f"{'rem cpu':>7s} {'cut/s':>9s} {'env/per':>7s} {'zmap MB':>7s} {'RSS MB':>7s}  bar <= {RATIO_BAR:g}x")
     facet_rows = []
     for name, path, config, stock, tool in cases:
-        r0, bare_cpu, wp, text = cut(path, config, stock, tool)
+        r0, bare_cpu, wp, text, surf = cut(path, config, stock, tool)
         zmap_mb = (wp.z.nbytes + wp.line.nbytes + wp._tile_max.nbytes) / 2**20
         rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        print(f"{name:16s} {r0.periods:8d} {r0.wall_s:7.2f} {wp.wall_s:9.2f} {wp.wall_s / r0.wall_s:6.1f} "
-              f"{bare_cpu:7.2f} {wp.cpu_s:7.2f} {wp.nodes_evaluated / wp.wall_s:9.3g} "
-              f"{wp.nodes_evaluated / r0.periods:9.0f} {zmap_mb:7.1f} {rss_mb:7.0f}  ({text})")
+        print(f"{name:16s} {r0.periods:8d} {r0.wall_s:7.2f} {wp.wall_s:9.2f} {wp.wall_s / r0.wall_s:6.2f} "
+              f"{bare_cpu:7.2f} {wp.cpu_s:7.2f} {wp.nodes_lowered / wp.wall_s:9.3g} "
+              f"{wp.nodes_evaluated / r0.periods:7.0f} {zmap_mb:7.1f} {rss_mb:7.0f}  ({text})")
         if name.startswith("finish"):
-            surf = wp.surface()
             ref = panel_z(*np.meshgrid(surf.x_mm, surf.y_mm))
             figs = [profile_figures(*profile(surf, "x", y, 10.0, 110.0, ref), form_removed=True)
                     for y in np.arange(2.0, 38.01, 4.0)]  # pass centres: Y = 0.2 k
@@ -114,7 +117,7 @@ def analytic_rows() -> None:
         def run(text, stock, grid_um, cfg=config):
             p = Path(tmp) / "p.nc"
             p.write_text(text)
-            return cut(p, cfg, stock, grid_um=grid_um)[2].surface()
+            return cut(p, cfg, stock, grid_um=grid_um)[4]
 
         for s_mm, g_um in ((0.5, 5.0), (0.2, 5.0), (0.5, 20.0)):
             surf = run(raster_program(s_mm, 9, 8.0, 1.0, 3000.0), "0,0,-5,8,6,0", g_um)

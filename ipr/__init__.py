@@ -4,6 +4,9 @@
     program = parse_file("part.nc", setup=Setup(work_offsets_mm={"G54": (100, 50, 0)}))
     for entity in iter_entities(open("big.nc"), "big.nc"):   # streaming, bounded memory
         ...
+    text = ProgramText.read("part.nc")         # read once, interpreted as often as needed
+    for batch in text.interpret(setup):          # lists of entities; GCodeError at the end
+        ...
 
 Lines are split at "\n" only ("\r" is a blank). Errors raise ipr.entities.GCodeError,
 whose `diagnostics` print as `file:line:col: error[CODE]: message` (codes: ipr/errors.py,
@@ -11,8 +14,12 @@ docs/gcode-errors.md; corner cases of the dialect: docs/gcode-notes.md).
 
 Modules: gcode.lark + syntax.py (grammar), shapes.py (fast path: line shapes parsed once),
 block.py (modal-group checks), interpreter.py (lines -> blocks, atomic commit), execute.py
-(a block's effects), plain.py (plain G0..G3 fast path), arcs.py, nurbs_blocks.py +
-nurbs_groups.py (NURBS block forms), expressions.py, modal.py (state, Setup), errors.py.
+(a block's effects), plain.py (plain G0..G3 fast path), plain_runs.py (numba: long stretches of
+plain G0/G1 lines read and run at once), memo.py (lines of a loop read once, their expressions
+compiled), arcs.py, nurbs_blocks.py +
+nurbs_groups.py (NURBS block forms), expressions.py, modal.py (state, Setup), errors.py;
+control flow: program_counter.py + oword.py over source.py (a file's lines); interpretation.py
+(a whole program run in batches, and ProgramText: a program kept to be interpreted again).
 
 Syntax, one line at a time: `parse_line_full(text)` always runs the lark grammar
 (ipr/gcode.lark); `parse_line(text)` returns the same thing through the fast path
@@ -34,33 +41,30 @@ import gc
 from collections.abc import Iterable, Iterator
 
 from ipr.entities import Entity, GCodeError, Program
-from ipr.interpreter import Interpreter
+from ipr.interpretation import Interpretation, ProgramText
 from ipr.modal import Setup
-from ipr.program_counter import Executor
 from ipr.shapes import parse_line
-from ipr.source import Source
+from ipr.source import read_text
 from ipr.syntax import Block, LineSyntaxError, parse_line_full
 
 __all__ = ["parse_text", "parse_file", "iter_entities", "Setup", "parse_line", "parse_line_full",
-           "Block", "LineSyntaxError", "GCodeError", "Program"]
+           "Block", "LineSyntaxError", "GCodeError", "Program", "Interpretation", "ProgramText"]
 
 
 def _run(lines: Iterable[str], file: str, setup: Setup | None, all_errors: bool) -> Program:
-    interp = Interpreter(file, setup, all_errors)
-    executor = Executor(interp, Source(file, lines))
+    run = Interpretation(lines, file, setup, all_errors)
+    entities: list[Entity] = []
     # The entity list only grows and holds no cycles: the cyclic collector would rescan
     # it again and again (half the run time on a 200,000-line program).
     gc_was_enabled = gc.isenabled()
     gc.disable()
     try:
-        executor.run()
-        interp.finish(executor.last_line)
+        for batch in run:
+            entities += batch
     finally:
         if gc_was_enabled:
             gc.enable()
-    if interp.diagnostics:
-        raise GCodeError(interp.diagnostics)
-    return Program(file, interp.out, interp.warnings, interp.state.program_number)
+    return Program(file, entities, run.warnings, run.program_number)
 
 
 def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
@@ -72,20 +76,11 @@ def parse_text(text: str, file: str = "<string>", *, setup: Setup | None = None,
 def parse_file(path, *, setup: Setup | None = None, all_errors: bool = False) -> Program:
     """parse_text of the file's UTF-8 text (undecodable bytes replaced; a BOM is no text).
     The whole Program is returned at once, so the file is read at once; iter_entities streams."""
-    with open(path, "rb") as f:
-        text = f.read().decode("utf-8", "replace")
-    return parse_text(text, str(path), setup=setup, all_errors=all_errors)
+    return parse_text(read_text(path), str(path), setup=setup, all_errors=all_errors)
 
 
 def iter_entities(lines: Iterable[str], file: str = "<string>", *,
                   setup: Setup | None = None) -> Iterator[Entity]:
     """Entities as the lines are read; raises GCodeError at the first error."""
-    interp = Interpreter(file, setup, all_errors=False)
-    executor = Executor(interp, Source(file, iter(lines)))
-    out = interp.out
-    while executor.step():
-        yield from out
-        out.clear()
-    yield from out
-    out.clear()
-    interp.finish(executor.last_line)
+    for batch in Interpretation(lines, file, setup):
+        yield from batch

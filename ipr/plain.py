@@ -23,16 +23,23 @@ _TEMPLATE = """\
 def step(p, n, s, append):
     if s.nurbs is not None or s.detour:
         return False
-    m = {motion}
+{motion}    u = s.unit
+{feed}{move}{commit}    return True
+"""
+_MODAL_MOTION = """\
+    m = s.motion
     if m != 10 and m != 0:
         return False
-    u = s.unit
-    f = {feed}
-    if f < 0.0 or m == 10 and f == 0.0 and {has_axes}:
+"""
+# F read from the line (F is in the units active before the block's G20/G21: none here)
+_LINE_FEED = """\
+    f = float(p[{f_part}]) * u / 60.0
+    if f < 0.0:
         return False
-{move}    s.feed_mm_s = f
-    s.motion = m
-    return True
+"""
+_ZERO_FEED = """\
+    if m == 10 and f == 0.0:
+        return False
 """
 _MOVE = """\
     pos = s.pos
@@ -41,12 +48,11 @@ _MOVE = """\
         end = ({absolute},)
     else:
         end = ({incremental},)
-    if m == 10:
-        append(Line(n, pos, end, f, s.path))
-    else:
-        append(Rapid(n, pos, end, s.path))
-    s.pos = end
+{append}    s.pos = end
 """
+_APPEND = {0: "    append(Rapid(n, pos, end, s.path))\n", 10: "    append(Line(n, pos, end, f, s.path))\n",
+           None: "    if m == 10:\n        append(Line(n, pos, end, f, s.path))\n"
+                 "    else:\n        append(Rapid(n, pos, end, s.path))\n"}
 
 
 def _end_sources(axis_parts: dict[int, int]) -> tuple[str, str]:
@@ -66,13 +72,16 @@ def compile_step(motion: int | None, f_part: int | None,
                  axis_parts: dict[int, int]) -> Callable[[list, int, object, Callable], bool]:
     """The step function of a plain G0/G1 shape: `motion` is its code (None: modal),
     `f_part` the index of F's number in the parts, `axis_parts` axis 0..2 -> index.
-    step(parts, line, state, append) -> handled."""
+    step(parts, line, state, append) -> handled. It writes the state only once every check
+    has passed, and only what the shape changes (the modal feed is never negative)."""
     absolute, incremental = _end_sources(axis_parts)
-    move = _MOVE.format(absolute=absolute, incremental=incremental)
-    source = _TEMPLATE.format(
-        motion="s.motion" if motion is None else motion,
-        feed="s.feed_mm_s" if f_part is None else f"float(p[{f_part}]) * u / 60.0",
-        has_axes=bool(axis_parts), move=move if axis_parts else "")
+    feed = _LINE_FEED.format(f_part=f_part) if f_part is not None else "    f = s.feed_mm_s\n"
+    if axis_parts and motion != 0:
+        feed += _ZERO_FEED
+    move = _MOVE.format(absolute=absolute, incremental=incremental, append=_APPEND[motion]) if axis_parts else ""
+    commit = ("    s.feed_mm_s = f\n" if f_part is not None else "") + ("    s.motion = m\n" if motion is not None else "")
+    source = _TEMPLATE.format(motion=_MODAL_MOTION if motion is None else f"    m = {motion}\n",
+                              feed=feed, move=move, commit=commit)
     namespace = {"Line": Line, "Rapid": Rapid, "float": float}
     exec(source, namespace)
     return namespace["step"]
@@ -121,3 +130,17 @@ def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[in
         return True
 
     return step
+
+
+def step_for(spec, part: dict[int, int]):
+    """The step function of an ipr.block.BlockSpec if it is a plain G0..G3 block, reading word i's
+    value from parts[part[i]]; None for any other spec."""
+    axis_parts = {k: part[i] for k, i in spec.axis_idx}
+    if spec.linear:
+        return compile_step(spec.motion, part.get(spec.f_index), axis_parts)
+    if not spec.plain_arc:
+        return None
+    idx = spec.index
+    offsets = {k: part[idx[letter]] for k, letter in enumerate("IJK") if letter in idx}
+    word = idx["R"] if "R" in idx else idx[next(c for c in "IJK" if c in idx)]
+    return compile_arc_step(spec.motion, part.get(spec.f_index), axis_parts, offsets, part.get(idx.get("R")), word)

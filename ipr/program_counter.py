@@ -22,9 +22,9 @@ from pathlib import Path
 
 from ipr.entities import set_file
 from ipr.errors import BlockError
-from ipr.expressions import evaluate
+from ipr.expressions import compile_expression
 from ipr.oword import OWord
-from ipr.source import Source
+from ipr.source import Source, read_text
 
 STRETCH_LINES = 4096   # lines handed to the interpreter at a time (iter_entities yields in between)
 _BRANCHES = ("elseif", "else", "endif")
@@ -61,7 +61,7 @@ class Frame:
 class Executor:
     """Drives an ipr.interpreter.Interpreter over a Source with a program counter."""
 
-    def __init__(self, interp, source: Source):
+    def __init__(self, interp, source: Source, texts: dict[Path, str] | None = None):
         self.interp = interp
         self.setup = interp.setup
         self.params = interp.state.params
@@ -74,6 +74,7 @@ class Executor:
         self.last_line = 0
         self.finished = False
         self._files: dict[Path, Source] = {}
+        self._texts = {} if texts is None else texts   # subroutine file -> text, possibly shared
         folder = None if source.file.startswith("<") else Path(source.file).resolve().parent
         self.search_dirs = [d for d in [folder, *map(Path, self.setup.subroutine_path)] if d is not None]
 
@@ -116,7 +117,7 @@ class Executor:
             return self._end_of_file()
         interp.file = src.file
         mark = len(interp.out)
-        last = interp.run(lines, pc)
+        last = interp.run(lines, pc, src.memo if src.keep else None)
         if src is not self.main:
             for e in interp.out[mark:]:
                 set_file(e, src.file)
@@ -152,8 +153,12 @@ class Executor:
     # ---- O-words --------------------------------------------------------------------
     def _value(self, ow: OWord, i: int, n: int) -> float:
         self.params.line = n
+        compiled = self.src.compiled
+        key = (n, i)
+        if key not in compiled:   # control lines repeat (loop tests): compiled at their first run
+            compiled[key] = compile_expression(ow.args[i])
         try:
-            return evaluate(ow.args[i], self.params)
+            return compiled[key](self.params)
         except BlockError as err:
             err.col = err.col or ow.arg_cols[i]
             raise
@@ -326,9 +331,9 @@ class Executor:
 
     def _file(self, path: Path) -> Source:
         if path not in self._files:
-            with open(path, "rb") as f:
-                text = f.read().decode("utf-8", "replace")
-            self._files[path] = Source(str(path), text.removeprefix("\ufeff").split("\n"))
+            if path not in self._texts:
+                self._texts[path] = read_text(path)
+            self._files[path] = Source(str(path), self._texts[path].split("\n"))
         return self._files[path]
 
 

@@ -23,6 +23,12 @@ _READ_LINES = 1024
 _NO_OWORD = None
 
 
+def read_text(path) -> str:
+    """A program file's text: UTF-8 (undecodable bytes replaced), without a byte order mark."""
+    with open(path, "rb") as f:
+        return f.read().decode("utf-8", "replace").removeprefix("\ufeff")
+
+
 class Source:
     """One file's lines; `file` names it in diagnostics and in the entities it produces."""
 
@@ -40,6 +46,8 @@ class Source:
         self.subs: dict[str, int] = {}          # label -> line of its `sub`
         self.programs: dict[str, int] = {}      # Fanuc program number -> line of `O<n>`
         self.scanned = 0                        # definitions are indexed up to this line
+        self.memo: dict = {}                    # line -> what reading it gave (ipr.interpreter), once kept
+        self.compiled: dict = {}                # (line, argument) -> an O-word argument, compiled
         self._bom_checked = False
 
     # ---- lines ----------------------------------------------------------------------

@@ -1,8 +1,9 @@
 """The virtual controller: check the whole program, then run it into the drive.
 
-`check` interprets the whole file with every error collected (ipr, all_errors) and
-checks the travel limits of the whole path; any problem refuses the run with every
-reason and its line, before a single period moves. `run` streams the program
+`check` interprets the whole file with every error collected and checks the travel limits
+of the whole path and the NURBS the planner must walk (machine.check: in memory bounded by
+the program's text, whatever the number of executed blocks); any problem refuses the run
+with every reason and its line, before a single period moves. `run` streams the program
 through the feed stage and interpolators (ipo.feed.planner.plan_periods) into the
 simulated drive, either as fast as possible or paced in real time (machine.realtime),
 and handles the program's events: dwell (standing-still periods from the feed stage),
@@ -17,34 +18,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
-
-from ipo.feed.planner import nurbs_end_gap_mm
-from ipo.feed.split import planning_problem
 from ipo.contracts import PeriodBatch
 from ipo.errors import IpoError
-from ipr import Setup, parse_file
-from ipr.entities import (MOTION_TYPES, Auxiliary, Coolant, GCodeError, Message, Nurbs, ProgramEnd, Program, Spindle, Stop,
-                          ToolChange)
+from ipr.entities import Auxiliary, Coolant, GCodeError, Message, ProgramEnd, Spindle, Stop, ToolChange
+from machine.check import CheckedProgram, ProgramRejected, check_program, first_motion_start
 from machine.drive import Drive, DriveLimits, TravelLimitError
-from machine.extents import travel_violations
 from machine.servo import ServoModel
 
-
-class ProgramRejected(Exception):
-    """The program may not run; `reasons` holds one line per problem, each naming its line."""
-
-    def __init__(self, reasons: list[str]):
-        self.reasons = reasons
-        super().__init__("\n".join(reasons))
+__all__ = ["Controller", "RunResult", "CheckedProgram", "ProgramRejected", "start_position"]
 
 
-def start_position(program: Program) -> tuple[float, float, float]:
+def start_position(program) -> tuple[float, float, float]:
     """Where the machine stands before the first move: the first motion's start."""
-    for e in program.entities:
-        if isinstance(e, MOTION_TYPES):
-            return tuple(float(c) for c in e.start)
-    return (0.0, 0.0, 0.0)
+    return first_motion_start(program.entities) or (0.0, 0.0, 0.0)
 
 
 @dataclass(slots=True)
@@ -109,42 +95,22 @@ class Controller:
         self.planner = planner  # plan_periods's signature; None = the machine file's planner (machine.planners)
         self.check_s = 0.0
 
-    def check(self, path: str | Path) -> Program:
-        """Interpret and check the whole program; raise ProgramRejected with every reason."""
-        t0 = time.perf_counter()
-        try:
-            program = parse_file(path, setup=Setup.from_machine(self.config), all_errors=True)
-        except GCodeError as err:
-            raise ProgramRejected([str(d) for d in err.diagnostics]) from None
-        except OSError as err:
-            raise ProgramRejected([f"{path}: cannot read the program: {err.strerror or err}"]) from None
-        motions = [e for e in program.entities if isinstance(e, MOTION_TYPES)]
-        start = np.array(start_position(program))
-        reasons = [f"{program.file}:{line}:1: error[E-TRAVEL]: {why}"
-                   for line, why in travel_violations(motions, self.limits.min_mm, self.limits.max_mm)]
-        end_gap = nurbs_end_gap_mm(self.config)
-        reasons += [f"{program.file}:{e.line}:1: error[E-NURBS-PATH]: {why}" for e in motions
-                    if isinstance(e, Nurbs) and (why := planning_problem(e, end_gap)) is not None]
-        outside = (start < self.limits.min_mm) | (start > self.limits.max_mm)
-        if outside.any():
-            reasons.insert(0, f"{program.file}:0:1: error[E-TRAVEL]: the start position {start.tolist()} mm "
-                              f"is outside the travel")
-        if reasons:
-            raise ProgramRejected(reasons)
-        self.check_s = time.perf_counter() - t0
+    def check(self, path: str | Path) -> CheckedProgram:
+        """Interpret and check the whole program (machine.check); raise ProgramRejected with every reason."""
+        program, self.check_s = check_program(path, self.config, self.limits.min_mm, self.limits.max_mm)
         return program
 
-    def make_drive(self, program: Program) -> Drive:
-        start = start_position(program)
-        servo = ServoModel.from_config(self.config.servo, self.config.period_s, start)
-        return Drive(self.limits, start_mm=start, servo=servo, sinks=self.sinks)
+    def make_drive(self, program: CheckedProgram) -> Drive:
+        servo = ServoModel.from_config(self.config.servo, self.config.period_s, program.start_mm)
+        return Drive(self.limits, start_mm=program.start_mm, servo=servo, sinks=self.sinks)
 
-    def run(self, program: Program, *, progress: Callable[[int], None] | None = None, player=None) -> RunResult:
+    def run(self, program: CheckedProgram, *, progress: Callable[[int], None] | None = None,
+            player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
         plan = self.planner
         if plan is None:
             from machine.planners import planner_for
-            plan = planner_for(self.config, program, start_position(program))
+            plan = planner_for(self.config, program, program.start_mm)
         drive = self.make_drive(program)
         drive.warm_up()  # numba's one-off start-up (about a second) is process start-up, not run time
         deliver = player.play if player is not None else drive.receive
@@ -153,8 +119,8 @@ class Controller:
         stops: list[int] = []
         messages: list[str] = []
         state, fault = "completed", None
-        stream = plan(program.entities, self.config, method=self.method,
-                              feed_override=self.feed_override, start_mm=start_position(program))
+        stream = plan(program.entities, self.config, method=self.method, feed_override=self.feed_override,
+                      start_mm=program.start_mm)
         if player is not None:
             from machine.realtime import prefetch
             stream = prefetch(stream)
@@ -204,6 +170,8 @@ class Controller:
         except IpoError as err:  # the planner refused a block the checks let through: stop, say why
             state, fault = "fault", (f"the planner stopped at line {drive.line if err.line is None else err.line}: "
                                      f"error[{err.code}]: {err.message}")
+        except GCodeError as err:  # the second reading differs from the checked one: a bug, but stop safely
+            state, fault = "fault", f"the program read differently when run than when checked: {err}"
         finally:
             stream.close()
             if player is not None:
@@ -225,7 +193,7 @@ class Controller:
         return RunResult(
             file=program.file, state=state, line=drive.line, position_mm=drive.position_mm.tolist(),
             cycle_time_s=sim, periods=st.periods,
-            motions=sum(1 for e in program.entities if isinstance(e, MOTION_TYPES)),
+            motions=program.motion_count,
             path_length_mm=st.path_length_mm,
             max_axis_velocity_mm_s=[round(float(v), 4) for v in st.max_velocity_mm_s],
             max_axis_accel_mm_s2=[round(float(v), 3) for v in st.max_accel_mm_s2],

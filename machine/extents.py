@@ -17,11 +17,13 @@ from __future__ import annotations
 import heapq
 import math
 from itertools import chain, count
+from operator import attrgetter
+from typing import NamedTuple
 
 import numpy as np
 
 from ipo.nurbs.subcurve import sub_curve
-from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid, group_by_type
 
 # the extreme of a NURBS is decided to this (far below any BLU; well above rounding at 1e4 mm)
 EXTREME_TOL_MM = 1e-9
@@ -29,25 +31,71 @@ EXTREME_TOL_MM = 1e-9
 MAX_SUBDIVISIONS = 20000
 
 
-def arc_extent(arc: Arc) -> tuple[np.ndarray, np.ndarray]:
-    a, b, n = PLANE_AXES[arc.plane]
-    start, end, c = (np.array(v, dtype=float) for v in (arc.start, arc.end, arc.center))
-    r = max(math.hypot(start[a] - c[a], start[b] - c[b]), math.hypot(end[a] - c[a], end[b] - c[b]))
-    a0 = math.atan2(start[b] - c[b], start[a] - c[a])
-    sweep = arc.sweep_rad
-    lo_ang, hi_ang = sorted((a0, a0 + sweep))
-    pts = [start, end]
-    k = math.ceil(lo_ang / (math.pi / 2))
-    while k * math.pi / 2 <= hi_ang:
-        p = start.copy()
-        p[a] = c[a] + r * round(math.cos(k * math.pi / 2))
-        p[b] = c[b] + r * round(math.sin(k * math.pi / 2))
-        pts.append(p)
-        k += 1
-    pts = np.array(pts)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    lo[n], hi[n] = min(start[n], end[n]), max(start[n], end[n])
+def coordinates(entities, attr: str) -> np.ndarray:
+    """(n, 3) array of one point attribute ("start", "end", "center") of n entities."""
+    return np.fromiter(chain.from_iterable(map(attrgetter(attr), entities)), float,
+                       3 * len(entities)).reshape(-1, 3)
+
+
+_PLANES = ("XY", "ZX", "YZ")
+_PLANE_AXES = np.array([PLANE_AXES[p] for p in _PLANES])
+_QUARTERS = ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))   # cos, sin of 0, 90, 180, 270 degrees
+
+
+class ArcSweeps(NamedTuple):
+    """Arcs as arrays: (n, 3) start, end and centre; per arc its plane's axes (n, 3: a, b,
+    normal), the start angle, the signed sweep (ipr.entities.Arc.sweep_rad's rule, full turns
+    included) and the start's and end's distance from the centre in the plane."""
+
+    start: np.ndarray
+    end: np.ndarray
+    centre: np.ndarray
+    axes: np.ndarray
+    a0_rad: np.ndarray
+    sweep_rad: np.ndarray
+    r_start_mm: np.ndarray
+    r_end_mm: np.ndarray
+
+
+def arc_sweeps(arcs: list[Arc]) -> ArcSweeps:
+    n = len(arcs)
+    start, end, centre = coordinates(arcs, "start"), coordinates(arcs, "end"), coordinates(arcs, "center")
+    axes = _PLANE_AXES[[_PLANES.index(m.plane) for m in arcs]].reshape(n, 3)
+    rows, a, b = np.arange(n), axes[:, 0], axes[:, 1]
+    sa, sb = start[rows, a] - centre[rows, a], start[rows, b] - centre[rows, b]
+    ea, eb = end[rows, a] - centre[rows, a], end[rows, b] - centre[rows, b]
+    a0, a1 = np.arctan2(sb, sa), np.arctan2(eb, ea)
+    ccw = np.fromiter(map(attrgetter("ccw"), arcs), bool, n)
+    turns = np.fromiter(map(attrgetter("turns"), arcs), float, n)
+    up, down = np.mod(a1 - a0, 2 * np.pi), -np.mod(a0 - a1, 2 * np.pi)
+    sweep = np.where(ccw, np.where(up > 1e-12, up, 2 * np.pi), np.where(down < -1e-12, down, -2 * np.pi))
+    sweep += np.copysign(2 * np.pi * turns, sweep)
+    return ArcSweeps(start, end, centre, axes, a0, sweep, np.hypot(sa, sb), np.hypot(ea, eb))
+
+
+def arc_boxes(arcs: list[Arc]) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) exact low and high corners of arcs: in the plane the end points and every quarter
+    point (0, 90, 180, 270 degrees about the centre) the sweep passes; along the normal (the
+    helix) the start and the end."""
+    g = arc_sweeps(arcs)
+    lo, hi = np.minimum(g.start, g.end), np.maximum(g.start, g.end)
+    rows, r = np.arange(len(arcs)), np.maximum(g.r_start_mm, g.r_end_mm)
+    for q, cos_sin in enumerate(_QUARTERS):
+        theta = q * np.pi / 2
+        ahead = np.where(g.sweep_rad >= 0, np.mod(theta - g.a0_rad, 2 * np.pi), np.mod(g.a0_rad - theta, 2 * np.pi))
+        passed = rows[ahead <= np.abs(g.sweep_rad)]
+        for k in (0, 1):
+            axis = g.axes[passed, k]
+            coord = g.centre[passed, axis] + r[passed] * cos_sin[k]
+            lo[passed, axis] = np.minimum(lo[passed, axis], coord)
+            hi[passed, axis] = np.maximum(hi[passed, axis], coord)
     return lo, hi
+
+
+def arc_extent(arc: Arc) -> tuple[np.ndarray, np.ndarray]:
+    """arc_boxes of one arc."""
+    lo, hi = arc_boxes([arc])
+    return lo[0], hi[0]
 
 
 def _halves(pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -116,44 +164,53 @@ def nurbs_extent(curve: Nurbs, lo_mm: np.ndarray, hi_mm: np.ndarray) -> tuple[np
     return lo, hi
 
 
-def _arcs_near_the_limits(arcs: list[Arc], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Arc]:
-    """Arcs whose whole circle (centre ± radius in the plane) is not inside the travel."""
-    if not arcs:
-        return []
-    def coords(attr):
-        return np.fromiter(chain.from_iterable(getattr(m, attr) for m in arcs), float, 3 * len(arcs)).reshape(-1, 3)
-    start, end, centre = coords("start"), coords("end"), coords("center")
-    normal = np.array([PLANE_AXES[m.plane][2] for m in arcs])
-    in_plane = np.ones((len(arcs), 3), bool)
-    in_plane[np.arange(len(arcs)), normal] = False
-    r = np.maximum(np.linalg.norm(np.where(in_plane, start - centre, 0), axis=1),
-                   np.linalg.norm(np.where(in_plane, end - centre, 0), axis=1))[:, None]
-    lo = np.where(in_plane, centre - r, np.minimum(start, end))
-    hi = np.where(in_plane, centre + r, np.maximum(start, end))
-    near = np.nonzero(((lo < lo_mm) | (hi > hi_mm)).any(axis=1))[0]
-    return [arcs[i] for i in near]
+class Excursion(NamedTuple):
+    """A motion at `line` reaching `reach_mm` on `axis` (0..2), past the travel on `side`
+    (+1: above the upper limit, -1: below the lower)."""
+
+    line: int
+    axis: int
+    side: int
+    reach_mm: float
+
+    def reason(self, lo_mm: np.ndarray, hi_mm: np.ndarray) -> str:
+        limit, where = (hi_mm[self.axis], "above") if self.side > 0 else (lo_mm[self.axis], "below")
+        return f"{'XYZ'[self.axis]} reaches {self.reach_mm:.4f} mm, {where} the travel limit {limit:.4f} mm"
 
 
-def travel_violations(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[tuple[int, str]]:
-    """(line, reason) for every motion that leaves the travel, one per axis and side.
+def travel_excursions(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
+    """Every motion that leaves the travel, one Excursion per axis and side, in line order."""
+    return excursions_of(group_by_type(list(motions)), lo_mm, hi_mm)
+
+
+def excursions_of(groups: dict[type, list], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
+    """travel_excursions of motions grouped by type (ipr.entities.group_by_type).
 
     A straight move spans its start and end, and its start is the previous motion's
     end (or the start position, which the caller checks), so its end point suffices.
     """
-    straight = [m for m in motions if type(m) is Line or type(m) is Rapid]
     boxes: list[tuple[int, np.ndarray, np.ndarray]] = []
+    straight = groups.get(Line, []) + groups.get(Rapid, [])
     if straight:
-        ends = np.fromiter(chain.from_iterable(m.end for m in straight), float, 3 * len(straight)).reshape(-1, 3)
+        ends = coordinates(straight, "end")
         bad = np.nonzero(((ends < lo_mm) | (ends > hi_mm)).any(axis=1))[0]
         boxes += [(straight[i].line, ends[i], ends[i]) for i in bad]
-    arcs = [m for m in motions if type(m) is Arc]
-    boxes += [(m.line, *arc_extent(m)) for m in _arcs_near_the_limits(arcs, lo_mm, hi_mm)]
-    boxes += [(m.line, *nurbs_extent(m, lo_mm, hi_mm)) for m in motions if type(m) is Nurbs]
-    out: list[tuple[int, str]] = []
+    arcs = groups.get(Arc)
+    if arcs:
+        lo, hi = arc_boxes(arcs)
+        bad = np.nonzero(((lo < lo_mm) | (hi > hi_mm)).any(axis=1))[0]
+        boxes += [(arcs[i].line, lo[i], hi[i]) for i in bad]
+    boxes += [(m.line, *nurbs_extent(m, lo_mm, hi_mm)) for m in groups.get(Nurbs, ())]
+    out: list[Excursion] = []
     for line, lo, hi in sorted(boxes, key=lambda b: b[0]):
-        for i, name in enumerate("XYZ"):
+        for i in range(3):
             if lo[i] < lo_mm[i]:
-                out.append((line, f"{name} reaches {lo[i]:.4f} mm, below the travel limit {lo_mm[i]:.4f} mm"))
+                out.append(Excursion(line, i, -1, float(lo[i])))
             if hi[i] > hi_mm[i]:
-                out.append((line, f"{name} reaches {hi[i]:.4f} mm, above the travel limit {hi_mm[i]:.4f} mm"))
+                out.append(Excursion(line, i, 1, float(hi[i])))
     return out
+
+
+def travel_violations(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[tuple[int, str]]:
+    """(line, reason) for every motion that leaves the travel, one per axis and side."""
+    return [(x.line, x.reason(lo_mm, hi_mm)) for x in travel_excursions(motions, lo_mm, hi_mm)]

@@ -33,42 +33,72 @@ ARC_SAG_FRACTION = 0.1  # arcs become chords within this fraction of the toleran
 @dataclass(frozen=True, slots=True)
 class Chain:
     """Moves in program order and their path as a polyline: `points[ends[i]]` is where move i ends
-    (`ends[-1] == len(points) - 1`, `points[0]` is the chain's start)."""
+    (`ends[-1] == len(points) - 1`, `points[0]` is the chain's start). tan_in/tan_out: the exact
+    direction in which the path arrives at / leaves each point (a line's own, an arc's tangent;
+    at the chain's ends the one there is); on_arc: points inside an arc."""
 
     moves: tuple
     points: np.ndarray  # (n, 3) mm
     ends: np.ndarray  # (len(moves),) index of each move's end in points
     sag_mm: float  # largest distance of an arc from its chords (0 without arcs)
+    tan_in: np.ndarray  # (n, 3) unit
+    tan_out: np.ndarray  # (n, 3) unit
+    on_arc: np.ndarray  # (n,) bool
 
 
-def _arc_points(arc: Arc, sag_mm: float) -> np.ndarray:
-    """Points on the arc after its start, the last one its end, chords within sag_mm."""
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _arc_points(arc: Arc, sag_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points on the arc after its start, the last one its end, chords within sag_mm; and the arc's
+    unit tangent at its start and at each of them."""
     a, b, n = PLANE_AXES[arc.plane]
     r = arc.radius_mm
     sweep = arc.sweep_rad
     step = 2.0 * np.arccos(max(0.0, 1.0 - sag_mm / r)) if r > sag_mm else np.pi / 2
     k = max(2, int(np.ceil(abs(sweep) / max(step, 1e-6))))
-    t = np.arange(1, k + 1) / k
+    t = np.arange(0, k + 1) / k
     a0 = np.arctan2(arc.start[b] - arc.center[b], arc.start[a] - arc.center[a])
-    out = np.empty((k, 3))
+    out = np.empty((k + 1, 3))
     out[:, a] = arc.center[a] + r * np.cos(a0 + sweep * t)
     out[:, b] = arc.center[b] + r * np.sin(a0 + sweep * t)
     out[:, n] = arc.start[n] + (arc.end[n] - arc.start[n]) * t
     out[-1] = arc.end
-    return out
+    tan = np.empty((k + 1, 3))
+    tan[:, a] = -r * sweep * np.sin(a0 + sweep * t)
+    tan[:, b] = r * sweep * np.cos(a0 + sweep * t)
+    tan[:, n] = arc.end[n] - arc.start[n]
+    return out[1:], _unit(tan)
 
 
 def _path_of(moves: list, sag_mm: float) -> Chain:
     pts = [np.array([moves[0].start], dtype=float)]
+    t_in, t_out, inside = [np.zeros((1, 3))], [np.zeros((1, 3))], [np.zeros(1, dtype=bool)]
     ends = []
     count = 1
     for m in moves:
-        p = _arc_points(m, sag_mm) if isinstance(m, Arc) else np.array([m.end], dtype=float)
+        if isinstance(m, Arc):
+            p, tan = _arc_points(m, sag_mm)
+            t_out[-1][-1] = tan[0]
+            t_in.append(tan[1:])
+            t_out.append(tan[1:].copy())
+            inside.append(np.arange(len(p)) < len(p) - 1)
+        else:
+            p = np.array([m.end], dtype=float)
+            d = _unit(p[0] - np.asarray(m.start, dtype=float))
+            t_out[-1][-1] = d
+            t_in.append(d[None, :])
+            t_out.append(d[None, :].copy())
+            inside.append(np.zeros(1, dtype=bool))
         pts.append(p)
         count += len(p)
         ends.append(count - 1)
     has_arc = any(isinstance(m, Arc) for m in moves)
-    return Chain(tuple(moves), np.vstack(pts), np.array(ends), sag_mm if has_arc else 0.0)
+    tan_in, tan_out = np.vstack(t_in), np.vstack(t_out)
+    tan_in[0] = tan_out[0]
+    return Chain(tuple(moves), np.vstack(pts), np.array(ends), sag_mm if has_arc else 0.0, tan_in, tan_out,
+                 np.concatenate(inside))
 
 
 def _continues(a, b) -> bool:

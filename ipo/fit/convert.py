@@ -1,7 +1,9 @@
-"""Program -> program: replace chains of G01/G02/G03 moves by Fanuc G06.2 groups (001 rational fits).
+"""Program -> program: replace chains of G01/G02/G03 moves by G06.2 (or G5.2) groups within a tolerance.
 
-Chains run through corners (ipo.fit.chains, ipo.fit.groups); a group keeps a sharp
-corner as a knot of multiplicity = degree. Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
+Chains run through corners (ipo.fit.chains). With G06.2 (the default) each chain is planned
+as rational quadratic conic spans with their own knots and weights (ipo.fit.conic_plan,
+ipo.fit.weights); with G5.2, or a degree of 3 or more, as 001's rational fits on uniform
+knots (ipo.fit.groups). A group keeps a sharp corner as a knot of multiplicity = degree. Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
 so that each entity is tied to its source line together with the units, distance
 mode and offsets in force there); every line outside a fitted piece is copied
 unchanged. A G06.2 group starts at the current position (its first block carries
@@ -22,9 +24,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
+from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain
+from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.rational import RationalFit
-from ipo.fit.tolerance import max_deviation
 from ipr import Setup, parse_line
 from ipr.entities import Arc, Line
 from ipr.interpreter import Interpreter
@@ -36,7 +39,8 @@ AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 END_DIGITS = 9  # the last control point: as exact as the source's own number
-WEIGHT_DIGITS = 6
+WEIGHT_DIGITS = 7  # significant digits of a weight (weights span several decades)
+KNOT_DIGITS = 6
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -175,21 +179,26 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
     """Fanuc G06.2 blocks for `fit` (points in machine mm) and the curve exactly as written."""
     p = fit.degree
     written, pts = _written(fit, frame, digits)
-    weights = np.round(fit.weights, WEIGHT_DIGITS)
-    knots = fit.knots
+    weights = np.array([round(w, weight_decimals(w)) for w in fit.weights])
+    knots = np.round(fit.knots, KNOT_DIGITS)
 
     def r_word(i):
-        return "" if weights[i] == 1.0 else f" R{fmt(weights[i], WEIGHT_DIGITS)}"
+        return "" if weights[i] == 1.0 else f" R{fmt(weights[i], weight_decimals(weights[i]))}"
 
-    out = [f"G06.2 P{p + 1} K{fmt(knots[0], 6)}{r_word(0)} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)}"]
+    out = [f"G06.2 P{p + 1} K{fmt(knots[0], KNOT_DIGITS)}{r_word(0)} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)}"]
     prev = None
     for i, vals in enumerate(written, 1):
         axes = "".join(f" {a}{v}" for a, v, pv in zip("XYZ", vals, prev or (None,) * 3)
                        if (v != pv if frame.absolute else v != "0"))
-        out.append(f"K{fmt(knots[i], 6)}{axes}{r_word(i)}")
+        out.append(f"K{fmt(knots[i], KNOT_DIGITS)}{axes}{r_word(i)}")
         prev = vals
-    out += [f"K{fmt(k, 6)}" for k in knots[len(fit.points):]]
-    return out, replace(fit, points=pts, weights=weights)
+    out += [f"K{fmt(k, KNOT_DIGITS)}" for k in knots[len(fit.points):]]
+    return out, replace(fit, points=pts, weights=weights, knots=knots)
+
+
+def weight_decimals(w: float) -> int:
+    """Decimals that write a weight (0 < w <= 1) with WEIGHT_DIGITS significant digits."""
+    return max(WEIGHT_DIGITS - 1 - math.floor(math.log10(w)), 0)
 
 
 def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
@@ -200,29 +209,32 @@ def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> t
     w_0 = 1 (the curve is the same) and no knot is written: m control points cost m - 1 blocks
     and the closing G5.3."""
     written, pts = _written(fit, frame, digits)
-    weights = np.round(fit.weights / fit.weights[0], WEIGHT_DIGITS)
+    weights = np.round(fit.weights / fit.weights[0], 6)
     weights[0] = 1.0
     out = []
     for i, vals in enumerate(written, 1):
         head = f"G5.2 L{fit.degree + 1} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)} " if i == 1 else ""
-        out.append(f"{head}X{vals[0]} Y{vals[1]} P{fmt(weights[i], WEIGHT_DIGITS)}")
+        out.append(f"{head}X{vals[0]} Y{vals[1]} P{fmt(weights[i], 6)}")
     out.append("G5.3")
     pts[:, 2] = fit.points[0, 2]
     return out, replace(fit, points=pts, weights=weights)
 
 
-def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float = DEFAULT_CORNER_DEG,
+def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_deg: float = DEFAULT_CORNER_DEG,
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
                  accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0,
                  dialect: str = "g06.2") -> tuple[str, ConvertReport]:
     """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes
     for the fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the
     sharp-corner test of ipo.fit.chains; dialect: "g06.2" (Fanuc, 3-D, knots written, groups
-    through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece))."""
+    through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece);
+    degree: None for the dialect's own (2, conic spans, for G06.2; 3 for G5.2))."""
     if dialect not in DIALECTS:
         raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
         raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
+    if degree is None:
+        degree = 2 if dialect == "g06.2" else 3
     if not 1 <= degree <= 5:
         raise ValueError(f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
     lines = text.split("\n")  # as the IPR numbers lines: "\n" only
@@ -246,8 +258,10 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
         chains = [c for c, ok in zip(chains, flat) if ok]
     report.chains = len(chains)
     options = [replace(_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s),
-                       joins=dialect == "g06.2") for c in chains]
-    for chain, spans in zip(chains, _plan_all(chains, options, jobs)):
+                       joins=dialect == "g06.2", restore_blocks=_restore_cost(lines, c.moves[-1].line))
+               for c in chains]
+    planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
+    for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
         new, last_is_group = _convert_chain(chain, spans, lines, frames[chain.moves[0].line], tol_mm, report,
                                             g52_text if dialect == "g5.2" else group_text)
         if new is None:
@@ -260,7 +274,9 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
         if n in replaced:
-            out += replaced[n]
+            new = replaced[n]
+            # a chain that starts with a kept move right after a group ending the previous chain
+            out += [_with_motion(new[0], prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
         elif n not in skip:
             out.append(_with_motion(raw, prefix[n]) if n in prefix else raw)
         out += after.get(n, [])
@@ -268,6 +284,14 @@ def convert_text(text: str, tol_mm: float, *, degree: int = 3, corner_deg: float
     report.bytes_after = len(result.encode())
     report.blocks_after = count_blocks(result)
     return result, report
+
+
+def _restore_cost(lines: list[str], last: int) -> int:
+    """Blocks _restore_motion adds after a group ending on source line `last`."""
+    if not _needs_motion_mode(lines, last):
+        return 0
+    nxt = lines[last] if last < len(lines) else ""
+    return 0 if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, "G1") is not None else 1
 
 
 def _restore_motion(lines: list[str], last: int, code: str, after: dict, prefix: dict) -> None:
@@ -290,16 +314,16 @@ def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_
     return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
 
 
-def _plan_all(chains: list[Chain], options: list[FitOptions], jobs: int | None) -> list[list[Span]]:
-    """plan_chain on every chain, in worker processes where there is more than one core to use
+def _plan_all(planner, chains: list[Chain], options: list[FitOptions], jobs: int | None) -> list[list[Span]]:
+    """planner (plan_chain or plan_chain_conic) on every chain, in worker processes where there is more than one core to use
     (each chain's fit is independent of the others; results come back in order)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs must be >= 1, got {jobs}")
     if jobs == 1 or len(chains) < 2 * jobs:
-        return [plan_chain(c, o) for c, o in zip(chains, options)]
+        return [planner(c, o) for c, o in zip(chains, options)]
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(plan_chain, chains, options, chunksize=1))
+        return list(pool.map(planner, chains, options, chunksize=1))
 
 
 def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Frame, tol_mm: float,
@@ -335,7 +359,7 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
 
 def _group_for(span: Span, moves, frame, digits, tol_mm, sag_mm, report, writer) -> list[str] | None:
     text, written = writer(span.fit, moves[0].feed_mm_s, frame, digits)
-    dev = max_deviation(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
+    dev = written_deviation_mm(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
     if dev > tol_mm:
         report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))
         return None

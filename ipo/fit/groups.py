@@ -38,6 +38,7 @@ class FitOptions:
     max_feed_mm_s: float
     corner_deg: float
     joins: bool = True  # pieces may share a group (G06.2); False: each fitted piece is its own (G5.2)
+    restore_blocks: int = 1  # a block restoring G1/G2/G3 after a group that ends the chain (0 or 1)
 
 
 @dataclass(frozen=True, slots=True)

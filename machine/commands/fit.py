@@ -46,7 +46,9 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
               help="Where to write the converted program.")
 @click.option("--tol-mm", "tol_mm", required=True, type=float,
               help="Largest distance allowed between the curve and the G01 path, mm.")
-@click.option("--degree", default=3, show_default=True, type=int, help="Curve degree (G06.2 P = degree + 1).")
+@click.option("--degree", default=None, type=int,
+              help="Curve degree (G06.2 P = degree + 1)  [default: 2 with G06.2: rational quadratic spans with "
+                   "their own knots; 3 with G5.2]; 3..5 with G06.2 fits 001's curves on uniform knots.")
 @click.option("--corner-deg", default=30.0, show_default=True, type=float,
               help="A turn sharper than this between two moves ends a run.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None,
@@ -58,7 +60,7 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
               help="Also run both programs in vcnc's controller and print cycle time and feed fluctuation.")
 @click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
-def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, jobs: int | None, dialect: str,
+def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: float, jobs: int | None, dialect: str,
             gains: bool, machine: str | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
@@ -67,7 +69,7 @@ def command(src: str, out: str, tol_mm: float, degree: int, corner_deg: float, j
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")
-    if not 1 <= degree <= 5:
+    if degree is not None and not 1 <= degree <= 5:
         raise click.BadParameter(f"must be 1..5 (G06.2 order 2..6), got {degree}", param_hint="--degree")
     if not 0 <= corner_deg <= 180:
         raise click.BadParameter(f"must be 0..180, got {corner_deg}", param_hint="--corner-deg")

@@ -16,7 +16,7 @@ MAX_STEPS = 20_000_000  # steps (or pulses) of one study: its arrays stay within
 
 def _check_steps(program, step_um: float, option: str) -> None:
     """Refuse a step that is not a length, or so small that the study would not end in memory."""
-    from machine.commands.parse import path_length_mm
+    from machine.program_summary import path_length_mm
 
     if not (math.isfinite(step_um) and step_um > 0):
         raise click.BadParameter(f"must be a length > 0, got {step_um:g}", param_hint=option)

@@ -117,7 +117,7 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    last_line = max((getattr(e, "line", 0) for e in program.entities), default=1) or 1
+    last_line = program.last_line or 1
     with Progress(TextColumn("{task.description}"), BarColumn(),
                   TextColumn("line {task.completed:.0f}/{task.total:.0f}"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
@@ -132,13 +132,10 @@ def _write_pictures(digest, plot_file, report_file, program, result, machine_fil
     if digest.periods == 0:
         click.echo(f"{program.file}: nothing moved, no plot or report written", err=True)
         return
-    from ipr.entities import Rapid
-
-    rapid = {e.line for e in program.entities if isinstance(e, Rapid)}
     if plot_file:
         from machine.plot import plot_digest
 
-        plot_digest(digest, plot_file, title=f"vcnc run {program.file}", rapid_lines=rapid)
+        plot_digest(digest, plot_file, title=f"vcnc run {program.file}", rapid_lines=program.rapid_lines)
         click.echo(f"plot written to {plot_file}", err=True)
     if report_file:
         from machine.report.build import machine_info, run_report

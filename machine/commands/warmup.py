@@ -11,7 +11,8 @@ bench/run.py and docs/throughput.md).
 
 The warm-up runs a short built-in program through the same check → plan → interpolate → drive
 path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method),
-with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses.
+with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses;
+then it interprets a few hundred plain moves, for the interpreter's own kernels (ipr.plain_runs).
 """
 from __future__ import annotations
 
@@ -52,6 +53,8 @@ def command(machine_file):
     from numba.core import event
 
     from ipo.config import METHODS
+    from ipr import parse_text
+    from ipr.interpreter import SCAN_LINES
     from machine.controller import Controller
     from machine.report.digest import DigestSink
 
@@ -71,5 +74,8 @@ def command(machine_file):
             digest.finish()
             if result.state != "completed":
                 raise click.ClickException(f"warm-up run {method}: {result.state}: {result.fault}")
+        # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
+        # program as short as the one above does not reach
+        parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
     click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
                if compiled else "vcnc warmup: every kernel was already compiled (cached)")

@@ -103,13 +103,11 @@ def _base_info(kind: str) -> dict:
 
 
 def run_report(out: str | Path, digest: Digest, *, program, summary: dict, machine: dict, surface=None) -> Path:
-    """The report of one run: `program` is the checked ipr Program (warnings, rapids, file); `surface`
-    the virtual workpiece's height map (x_mm, y_mm, z_mm[j, i] attributes) when the run cut one."""
-    from ipr.entities import Rapid
-
+    """The report of one run: `program` is the machine.check.CheckedProgram (warnings, rapids, file);
+    `surface` the virtual workpiece's height map (x_mm, y_mm, z_mm[j, i] attributes) when the run cut one."""
     blob = Blob()
-    rapid = {e.line for e in program.entities if isinstance(e, Rapid)}
-    entry = add_run(blob, 0, digest, name=Path(program.file).name, program_file=program.file, rapid_lines=rapid,
+    entry = add_run(blob, 0, digest, name=Path(program.file).name, program_file=program.file,
+                    rapid_lines=program.rapid_lines,
                     summary=summary, warnings=program.warnings, messages=summary.get("messages", ()),
                     machine=machine, surface=surface)
     info = dict(_base_info("run"), runs=[entry])
@@ -137,8 +135,6 @@ def differences(run_a: dict, run_b: dict, *, batch: int = 1 << 16) -> EnvelopeDa
 
 def compare_report(out: str | Path, runs: dict, files: list[str], table: list[list[str]], machine: dict) -> Path:
     """The report of `vcnc compare`: runs["a"], runs["b"] as compare's _run keeps them."""
-    from ipr.entities import Rapid
-
     blob = Blob()
     entries = []
     for k, key in enumerate("ab"):
@@ -146,7 +142,7 @@ def compare_report(out: str | Path, runs: dict, files: list[str], table: list[li
         program = run["program"]
         digest = digest_trace(run["trace"])
         entries.append(add_run(blob, k, digest, name=Path(files[k]).name, program_file=program.file,
-                               rapid_lines={e.line for e in program.entities if isinstance(e, Rapid)},
+                               rapid_lines=program.rapid_lines,
                                summary=run["summary"], warnings=program.warnings,
                                messages=run["summary"].get("messages", ()), machine=machine))
     _add_envelope(blob, "d_env_", differences(runs["a"], runs["b"]))

@@ -52,8 +52,9 @@ def finish_workpiece(workpiece, result, surface_files):
 
     surface = workpiece.surface()
     click.echo(f"workpiece: removal {workpiece.wall_s:.3f} s for a run of {result.wall_s:.3f} s "
-               f"({workpiece.wall_s / max(result.wall_s, 1e-9):.2f}x), {workpiece.nodes_evaluated:,} node updates "
-               f"({workpiece.nodes_evaluated / max(workpiece.wall_s, 1e-9):.3g}/s)", err=True)
+               f"({workpiece.wall_s / max(result.wall_s, 1e-9):.2f}x), {workpiece.nodes_lowered:,} nodes cut "
+               f"({workpiece.nodes_lowered / max(workpiece.wall_s, 1e-9):.3g}/s), "
+               f"{workpiece.nodes_evaluated:,} envelopes evaluated", err=True)
     for path in surface_files:
         suffix = Path(path).suffix.lower()
         if suffix == ".npz":

@@ -11,13 +11,15 @@ class ToolError(ValueError):
 @dataclass(frozen=True, slots=True)
 class Cutter:
     """number: T word; shape flat | ball | bull; core_mm the flat bottom's radius, corner_mm the radius of
-    the rounded edge (ball: core 0, corner r; flat: corner 0); flutes for 002's tooth-pass model."""
+    the rounded edge (ball: core 0, corner r; flat: corner 0); flutes for 002's tooth-pass model;
+    length_mm: its tip below the gauge line the machine positions (the tool table's length_mm)."""
 
     number: int
     shape: str
     core_mm: float
     corner_mm: float
     flutes: int
+    length_mm: float = 0.0
 
     @property
     def radius_mm(self) -> float:
@@ -29,10 +31,12 @@ class Cutter:
 
     def describe(self) -> str:
         if self.shape == "ball":
-            return f"T{self.number} ball r = {self.corner_mm:g} mm"
-        if self.shape == "bull":
-            return f"T{self.number} bull D = {self.diameter_mm:g} mm, corner r = {self.corner_mm:g} mm"
-        return f"T{self.number} flat D = {self.diameter_mm:g} mm"
+            size = f"ball r = {self.corner_mm:g} mm"
+        elif self.shape == "bull":
+            size = f"bull D = {self.diameter_mm:g} mm, corner r = {self.corner_mm:g} mm"
+        else:
+            size = f"flat D = {self.diameter_mm:g} mm"
+        return f"T{self.number} {size}" + (f", {self.length_mm:g} mm long" if self.length_mm else "")
 
 
 def cutter_from_table(tools: dict, number: int) -> Cutter:
@@ -47,7 +51,7 @@ def cutter_from_table(tools: dict, number: int) -> Cutter:
         raise ToolError(f"tool T{number} has no size: give tools.{number}.diameter_mm (or ball_radius_mm)")
     radius = diameter / 2.0
     if shape == "ball":
-        return Cutter(number, shape, 0.0, radius, t.flutes)
+        return Cutter(number, shape, 0.0, radius, t.flutes, t.length_mm)
     if shape == "bull":
-        return Cutter(number, shape, radius - t.corner_radius_mm, t.corner_radius_mm, t.flutes)
-    return Cutter(number, "flat", radius, 0.0, t.flutes)
+        return Cutter(number, shape, radius - t.corner_radius_mm, t.corner_radius_mm, t.flutes, t.length_mm)
+    return Cutter(number, "flat", radius, 0.0, t.flutes, t.length_mm)

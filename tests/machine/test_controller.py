@@ -176,7 +176,8 @@ def shifted(stream, line):
 
 def program_of(*entities):
     from ipr.entities import Program
-    return Program("t.nc", list(entities))
+    from machine.check import CheckedProgram
+    return CheckedProgram.of(Program("t.nc", list(entities)))
 
 
 def controller(items, **kw):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from numba import njit
 
 from ipo.config import Tool, default_config
 from machine.controller import Controller, start_position
@@ -15,7 +16,9 @@ from machine.workpiece.analytic import (BOWL_STOCK, bowl_deviation, bowl_nurbs_p
                                         raster_program)
 from machine.workpiece.build import build_workpiece
 from machine.workpiece.figures import surface_figures
-from machine.workpiece.kernels import envelope
+from machine.workpiece.envelope import envelope
+from machine.workpiece.removal import cut as cut_batch
+from machine.workpiece.tiles import COUNTS, TILE
 from machine.workpiece.measure import profile_figures
 
 F32_MM = 2e-6  # the heights are stored in float32: 1 nm steps at these heights, 2 nm allowed
@@ -55,12 +58,17 @@ def test_envelope_is_the_minimum_over_the_segment():
             d = rho - core
             h = np.where(rho <= core, 0.0, np.where(d > corner, np.inf,
                                                     corner - np.sqrt(np.maximum(corner**2 - d**2, 0.0))))
-            ref = np.min(p0[2] + t * (p1[2] - p0[2]) + h)
-            got = envelope(q[0], q[1], *p0, *p1, core, corner)
+            g = p0[2] + t * (p1[2] - p0[2]) + h
+            ref = np.min(g)
+            got, t_got = envelope(q[0], q[1], *p0, *p1, core, corner)
             if np.isinf(ref):
                 assert np.isinf(got) or got >= p0[2] - 1e-9  # a grazing touch between samples
                 continue
             assert ref - 2e-4 <= got <= ref + 1e-12
+            # and it is reached at t_got
+            rho_t = np.hypot(*(q - p0[:2] - t_got * (p1[:2] - p0[:2])))
+            h_t = 0.0 if rho_t <= core else corner - math.sqrt(max(corner**2 - (rho_t - core) ** 2, 0.0))
+            assert p0[2] + t_got * (p1[2] - p0[2]) + h_t == pytest.approx(got, abs=1e-9)
 
 
 @pytest.mark.slow
@@ -234,3 +242,92 @@ def test_surface_report_flags_the_gouging_line_against_an_iges_reference(tmp_pat
     sink_um = 3.0 * (1 - math.cos(math.atan(0.05))) * 1e3
     assert 150.0 < worst["depth_um"] <= 200.0 + sink_um + 1.0 and worst["x_mm"] > 7.0
     assert figs["deviation_min_um"] == pytest.approx(-worst["depth_um"], abs=1e-6)
+
+
+@njit(cache=True)
+def _every_segment_at_every_node(z, line, origin, grid_mm, floor_mm, pos, lines, core, corner, stamp_first):
+    """One batch by the Z-map's definition, evaluated exhaustively: each node takes the lowest envelope of
+    any segment (floored) if below its height, from the first segment in program order reaching it."""
+    ny, nx = z.shape
+    for j in range(ny):
+        for i in range(nx):
+            best, k_best = np.float64(z[j, i]), -1
+            for k in range(pos.shape[0] - 1):
+                if not (stamp_first and k == 0) and pos[k, 0] == pos[k + 1, 0] and pos[k, 1] == pos[k + 1, 1] \
+                        and pos[k, 2] == pos[k + 1, 2]:
+                    continue
+                v = max(envelope(origin[0] + i * grid_mm, origin[1] + j * grid_mm, pos[k, 0], pos[k, 1], pos[k, 2],
+                                 pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2], core, corner)[0], floor_mm)
+                if v < best:
+                    best, k_best = v, k
+            if k_best >= 0:
+                z[j, i] = best
+                line[j, i] = lines[k_best]
+
+
+def _paths(rng):
+    """Tool paths at 1 um BLU: a zig-zag raster over a tilted wavy surface (chords along the passes), a
+    random walk, a plunge and a dwell, level passes of equal depth (exact ties) and a dive through the
+    stock's bottom."""
+    paths = []
+    pts = []
+    for k in range(5):
+        x = np.linspace(0.0, 6.0, 40)[:: 1 if k % 2 == 0 else -1]
+        xs = np.concatenate([np.linspace(x[m], x[m + 1], 9)[:-1] for m in range(len(x) - 1)] + [x[-1:]])
+        pts.append(np.column_stack([xs, np.full_like(xs, 1.0 + 0.3 * k), 0.1 * xs + 0.05 * np.sin(2 * xs) - 1.0]))
+    paths.append(np.vstack(pts))
+    paths.append(np.cumsum(rng.normal(0, 0.05, (400, 3)), axis=0) + [3.0, 2.5, -1.0])
+    plunge = np.column_stack([np.full(30, 2.0), np.full(30, 2.0), np.linspace(0.5, -1.5, 30)])
+    paths.append(np.vstack([plunge, np.repeat(plunge[-1:], 5, axis=0)]))
+    paths.append(np.vstack([np.column_stack([np.linspace(0.5, 5.5, 60), np.full(60, y), np.full(60, -0.8)])
+                            for y in (2.0, 2.5, 2.5)]))
+    paths.append(np.column_stack([np.linspace(0.0, 6.0, 80), np.linspace(1.0, 4.0, 80), np.linspace(0.0, -6.0, 80)]))
+    return [np.round(p, 3) for p in paths]
+
+
+# radii off the 1 um grid of the paths: no node lies exactly on a rim (where rounding decides a tangency)
+@pytest.mark.parametrize("core, corner", [(0.0, 1.5013), (1.0013, 0.0), (0.6013, 0.5)])
+def test_the_update_is_every_segment_at_every_node(core, corner):
+    """removal.cut (runs, bounds, tiles, threads) against the exhaustive definition, in two batches."""
+    rng = np.random.default_rng(11)
+    grid_mm, origin, floor_mm = 0.05, (0.0, 0.0), -2.0
+    for path in _paths(rng):
+        lines = np.arange(1, len(path), dtype=np.int32)
+        half = len(path) // 2
+        batches = ((path[:half + 1], lines[:half], True), (path[half:], lines[half:], False))
+        want_z = np.zeros((90, 130), np.float32)
+        want_line = np.zeros(want_z.shape, np.int32)
+        for pos, pos_lines, stamp in batches:
+            _every_segment_at_every_node(want_z, want_line, origin, grid_mm, floor_mm, pos, pos_lines, core, corner,
+                                         stamp)
+        for threads in (1, 2):
+            z = np.zeros(want_z.shape, np.float32)
+            line = np.zeros(z.shape, np.int32)
+            tile_max = np.zeros((-(-z.shape[0] // TILE), -(-z.shape[1] // TILE)))
+            counts = np.zeros(COUNTS, np.int64)
+            for pos, pos_lines, stamp in batches:
+                cut_batch(z, line, tile_max, (*origin, grid_mm, floor_mm), pos, pos_lines, (core, corner), stamp,
+                          counts, threads)
+            assert np.array_equal(z, want_z)
+            # a node's line names a segment that cut it to its height: the reference's, or one whose
+            # envelope there is the same to float64 rounding (the two ends of a joint, level passes)
+            assert np.array_equal(line > 0, want_line > 0)
+            for j, i in np.argwhere(line != want_line):
+                mine, theirs = (envelope(i * grid_mm, j * grid_mm, *path[n - 1], *path[n], core, corner)[0]
+                                for n in (line[j, i], want_line[j, i]))
+                assert max(mine, floor_mm) == pytest.approx(max(theirs, floor_mm), abs=1e-12)
+
+
+@pytest.mark.parametrize("compensation, depth_mm", [("G43 H2", 1.0), ("G49", 1.5), ("G43.1 Z0.3", 1.2)])
+def test_the_tip_cuts_where_the_tool_length_puts_it(tmp_path, compensation, depth_mm):
+    """T2 is 0.5 mm long below the gauge line the machine positions: G43 H2 compensates it exactly (the
+    plunge to Z-1 reaches -1), without compensation the tip goes 0.5 mm deeper than programmed, and a
+    dynamic offset of 0.3 mm leaves it 0.2 mm deeper. (The machine starts at its zero, the tip 0.5 mm
+    below: the stock's top is below that.)"""
+    tools = {2: Tool(shape="flat", diameter_mm=4.0, flutes=2, length_mm=0.5)}
+    text = f"G21 G90 G94 T2 M6\n{compensation}\nG0 X5 Y5 Z1\nG1 Z-1 F300\nG0 Z5\nM2\n"
+    surf = cut(tmp_path, text, "0,0,-5,10,10,-0.6", 20.0, tools=tools)
+    X, Y = np.meshgrid(surf.x_mm, surf.y_mm)
+    inside = np.hypot(X - 5, Y - 5) < 2.0 - 1e-6
+    assert np.allclose(surf.z_mm[inside], -depth_mm, atol=F32_MM)
+    assert np.all(surf.z_mm[np.hypot(X - 5, Y - 5) > 2.0 + 1e-6] == np.float32(-0.6))

@@ -7,25 +7,39 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
+from scipy.spatial import cKDTree
 
 from ipr import parse_text
-from ipr.entities import Arc, Line, Nurbs
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs
 from ipo.fit.chains import rounding_radius_mm
 from ipo.fit.convert import convert_text, count_blocks, rounding_bound_mm
 
 
 
-def _scipy_points(nb: Nurbs, per_span: int = 200) -> np.ndarray:
-    """The written NURBS evaluated by scipy: C(u) = sum N_i w_i P_i / sum N_i w_i."""
+SPACING_MM = 0.002
+
+
+def _scipy_points(nb: Nurbs, per_span: int = 2000, spacing_mm: float = SPACING_MM) -> np.ndarray:
+    """The written NURBS evaluated by scipy: C(u) = sum N_i w_i P_i / sum N_i w_i, at most spacing_mm
+    apart (a rational span can run fast through part of its parameter range: each knot span is first
+    sampled evenly in u, then again evenly along its length)."""
     hom = np.c_[nb.points * nb.weights[:, None], nb.weights]
     spl = BSpline(np.asarray(nb.knots), hom, nb.degree)
-    u = np.unique(np.concatenate([np.linspace(a, b, per_span) for a, b in zip(nb.knots[:-1], nb.knots[1:]) if b > a]))
-    h = spl(u)
-    return h[:, :3] / h[:, 3:]
+
+    def at(u):
+        h = spl(u)
+        return h[:, :3] / h[:, 3:]
+
+    out = []
+    for a, b in zip(nb.knots[:-1], nb.knots[1:]):
+        if b > a:
+            u = np.linspace(a, b, per_span)
+            s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(at(u), axis=0), axis=1))])
+            out.append(at(np.interp(np.linspace(0.0, s[-1], max(2, int(s[-1] / spacing_mm) + 2)), s, u)))
+    return np.vstack(out)
 
 
 def _arc_points(a: Arc, n: int = 400) -> np.ndarray:
-    from ipr.entities import PLANE_AXES
     i, j, k = PLANE_AXES[a.plane]
     t = np.linspace(0.0, 1.0, n)
     a0 = np.arctan2(a.start[j] - a.center[j], a.start[i] - a.center[i])
@@ -36,28 +50,20 @@ def _arc_points(a: Arc, n: int = 400) -> np.ndarray:
     return out
 
 
-def _path(entities) -> np.ndarray:
-    """Dense points along every feed move (lines as their two ends: distances go to segments)."""
+def _path(entities, spacing_mm: float = SPACING_MM) -> np.ndarray:
+    """Points along every feed move at most spacing_mm apart, each move on its own (no point on the
+    gap between two moves that do not meet, as across a rapid)."""
     pts = []
     for e in entities:
         if isinstance(e, Line):
-            pts.append(np.array([e.start, e.end]))
+            pts.append(_densified(np.array([e.start, e.end]), spacing_mm))
         elif isinstance(e, Arc):
-            pts.append(_arc_points(e, 60))
+            normal = PLANE_AXES[e.plane][2]
+            length = np.hypot(e.radius_mm * e.sweep_rad, e.end[normal] - e.start[normal])
+            pts.append(_arc_points(e, int(length / spacing_mm) + 2))
         elif isinstance(e, Nurbs):
-            pts.append(_scipy_points(e))
+            pts.append(_scipy_points(e, spacing_mm=spacing_mm))
     return np.vstack(pts)
-
-
-def _to_polyline(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Brute force: each point's distance to every segment of poly, the smallest."""
-    a, ab = poly[:-1], np.diff(poly, axis=0)
-    len2 = np.maximum(np.einsum("sd,sd->s", ab, ab), 1e-300)
-    out = []
-    for chunk in np.array_split(p, max(1, len(p) // 200)):
-        t = np.clip(np.einsum("psd,sd->ps", chunk[:, None] - a[None], ab) / len2, 0, 1)
-        out.append(np.linalg.norm(chunk[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1))
-    return np.concatenate(out)
 
 
 def _densified(poly: np.ndarray, step_mm: float) -> np.ndarray:
@@ -69,15 +75,13 @@ def _densified(poly: np.ndarray, step_mm: float) -> np.ndarray:
 
 
 def _both_ways(before, after) -> float:
-    """Largest distance original path -> written path and written path -> original path (feed moves)."""
+    """Largest distance original path -> written path and written path -> original path (feed moves),
+    both taken as points at most 2 um apart: a point's distance to the nearest point of the other
+    overstates its distance to that path by at most sqrt(d^2 + (1 um)^2) - d (0.05 um at d = 10 um)."""
     feed = (Line, Arc, Nurbs)
     a = _path([e for e in before if isinstance(e, feed)])
     b = _path([e for e in after if isinstance(e, feed)])
-    # the written curves are sampled: a point of the original path between two samples is at most
-    # half their spacing further from the curve than from the nearer sample's chord; the spacing is small
-    forward = _to_polyline(_densified(a, 0.005), b)
-    backward = _to_polyline(b, a)
-    return float(max(forward.max(), backward.max()))
+    return float(max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max()))
 
 
 def _random_corner_program(seed: int, n_pieces: int = 16) -> tuple[str, list[tuple[np.ndarray, float]]]:

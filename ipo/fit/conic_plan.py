@@ -1,0 +1,269 @@
+"""One chain -> the fewest written blocks with rational quadratic (conic) spans.
+
+The candidates are junctions (ipo.fit.conic): every vertex of the chain's path with a
+smooth tangent (the exact one inside an arc, else the tangent of the parabola through it
+and its neighbours), with its incoming and outgoing directions as well where the path
+turns there, and the middle of every line segment with the segment's direction (where
+a corner is rounded, or the path has an inflection, the junction sits on the leg). A
+shortest path over them counts written blocks (ipo.fit.quadratic writes one G06.2 group
+of degree 2 for each stretch inside a group):
+
+- a conic span from one junction to a later one: +1 (its control point C);
+- a corner (C0, a knot of multiplicity 2) at a vertex, from one of its junctions to
+  another: +1 (the vertex is a control point); the only way past a sharp vertex
+  (ipo.fit.chains) inside a group;
+- opening a group at a move end: +1 (the G06.2 block, control point 0 = where the
+  machine is); closing it at a move end: +1 for its last control point, + 3 closing
+  knots (+1 where the program needs G1/G2/G3 restored after the chain);
+- a move kept as written, between two move ends outside a group: +1.
+
+Spans into a junction are searched from the farthest start the previous junctions
+reached (less a margin) forwards, so each junction costs a few span tests, not one per
+earlier junction; the plan is therefore near-shortest, not provably shortest.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ipo.fit.conic import MAX_SAMPLES, control_point, fitting_rho, load_path
+from ipo.fit.weights import STATE, follow
+
+DEGREE = 2
+OPEN_COST = 1
+CORNER_COST = 1
+CLOSE_COST = 1 + DEGREE + 1  # the last control point and the closing knots
+CORNER_OPTION_RAD = np.radians(0.5)
+LONG_LEG = 1.5  # a segment this much longer than its shorter neighbour gets a junction at its middle  # a vertex that turns more also gets its in/out directions as junctions
+MAX_SPAN_POINTS = 400  # path points inside one span at most
+MAX_FAILS = 8  # spans from the nearest junctions back that may fail before a junction gives up
+INF = 1 << 40
+
+
+@dataclass(frozen=True, slots=True)
+class Junctions:
+    """Candidate junctions in path order: `pos` is the vertex index (vertex nodes) or i + 0.5
+    (the middle of segment i); `vertex` is -1 for segment nodes."""
+
+    pos: np.ndarray
+    point: np.ndarray  # (N, 3) mm
+    tangent: np.ndarray  # (N, 3) unit
+    vertex: np.ndarray  # (N,) int
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+def junctions(points: np.ndarray, tan_in: np.ndarray, tan_out: np.ndarray, on_arc: np.ndarray,
+              sharp: np.ndarray) -> Junctions:
+    """The candidates of a path (see the module doc). tan_in/tan_out: the exact direction in which
+    the path arrives at / leaves each point (lines: their direction; arcs: the arc's tangent);
+    on_arc: points inside an arc (one exact tangent); sharp: vertices kept sharp."""
+    n = len(points) - 1
+    d = np.diff(points, axis=0)
+    h = np.linalg.norm(d, axis=1)
+    u = d / h[:, None]
+    smooth = np.empty_like(points)
+    if n >= 2:
+        a, b = h[:-1, None], h[1:, None]
+        smooth[1:-1] = _unit(b * u[:-1] + a * u[1:])  # the parabola through three points
+        smooth[0] = _unit((2 * h[0] + h[1]) * u[0] - h[0] * u[1])
+        smooth[-1] = _unit((2 * h[-1] + h[-2]) * u[-1] - h[-1] * u[-2])
+    else:
+        smooth[:] = u[0]
+    smooth[on_arc] = tan_out[on_arc]
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", tan_in, tan_out), -1.0, 1.0))
+    leg = _leg_junctions(points, u, h, turn, on_arc)
+    pos, pt, tan, vert = [], [], [], []
+
+    def add(p, x, t, v):
+        pos.append(p)
+        pt.append(x)
+        tan.append(t)
+        vert.append(v)
+
+    for i in range(n + 1):
+        if on_arc[i]:
+            add(float(i), points[i], tan_out[i], i)
+        else:
+            ends = (i == 0, i == n)
+            if not sharp[i]:
+                add(float(i), points[i], smooth[i], i)
+            if ends[0] or turn[i] > CORNER_OPTION_RAD or sharp[i]:
+                add(float(i), points[i], tan_out[i], i)
+            if (ends[1] or turn[i] > CORNER_OPTION_RAD or sharp[i]) and not ends[0]:
+                add(float(i), points[i], tan_in[i], i)
+        if i < n and leg[i]:
+            add(i + 0.5, 0.5 * (points[i] + points[i + 1]), u[i], -1)
+    return Junctions(np.array(pos), np.array(pt), _unit(np.array(tan)), np.array(vert, dtype=np.int64))
+
+
+def _leg_junctions(points: np.ndarray, u: np.ndarray, h: np.ndarray, turn: np.ndarray,
+                   on_arc: np.ndarray) -> np.ndarray:
+    """The line segments whose middle is a junction: where a corner may be rounded (an end turns by
+    more than CORNER_OPTION_RAD), the path has an inflection (it turns one way before the segment
+    and the other after), or the segment is long beside its neighbours. Not on arcs' chords: an
+    arc's points carry its exact tangents."""
+    n = len(h)
+    leg = np.zeros(n, dtype=bool)
+    leg |= (turn[:-1] > CORNER_OPTION_RAD) | (turn[1:] > CORNER_OPTION_RAD)
+    if n >= 3:
+        bend = np.cross(u[:-1], u[1:])  # at the inner vertices 1..n-1
+        leg[1:-1] |= np.einsum("ij,ij->i", bend[:-1], bend[1:]) < 0.0
+        leg[1:-1] |= h[1:-1] > LONG_LEG * np.minimum(h[:-2], h[2:])
+    return leg & ~on_arc[:-1] & ~on_arc[1:]
+
+
+@njit(cache=True)
+def _relax(j, z, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new):
+    """Test the span from junction j to junction z and take it where it makes z cheaper; whether
+    the span fits (whatever it costs)."""
+    lo = int(np.floor(pos[j])) + 1
+    count = int(np.ceil(pos[z])) - 1 - lo + 3
+    if not control_point(pt[j], tan[j], pt[z], tan[z], gap_mm, c):
+        return False
+    load_path(q, pt[j], pt[z], lo, count, path)
+    r = fitting_rho(path, count, c, tol_mm, curve)
+    if r <= 0.0:
+        return False
+    cost = follow(ins_from[j] < 0, ctrl[j], pt[j], rho[j], state[j], c, r, new)
+    if cost > 0 and ins[j] + cost < ins[z]:
+        ins[z] = ins[j] + cost
+        ins_from[z] = j
+        ctrl[z] = c
+        rho[z] = r
+        state[z] = new
+        double[z] = cost == 2
+    return True
+
+
+@njit(cache=True)
+def _relax_at(g, z, group, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
+              c, new):
+    """_relax from every junction of position g; whether any span fits."""
+    fits = False
+    for j in range(group[g], group[g + 1]):
+        if _relax(j, z, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
+                  c, new):
+            fits = True
+    return fits
+
+
+@njit(cache=True)
+def plan_kernel(q, pos, pt, tan, vert, is_end, sharp, tol_mm, gap_mm, restore_cost):
+    """The shortest path of the module doc. Returns (out, out_from, ins, ins_from, ctrl, rho, double,
+    state): out[v] the fewest blocks up to move end v with no group open, out_from[v] >= 0 the
+    junction whose group closed there, -1 - e: a move kept from move end e; ins[k] with a group
+    open at junction k, ins_from[k] >= 0 the junction its span came from, -1: opened there,
+    -2 - z: a corner from junction z; ctrl, rho: the control point and weight of that span;
+    double: the span starts with a knot of multiplicity 2 (ipo.fit.weights), one block more;
+    state: the weights' state there (ipo.fit.weights)."""
+    n_nodes = pos.shape[0]
+    n_pts = q.shape[0]
+    out = np.full(n_pts, INF, dtype=np.int64)
+    out_from = np.full(n_pts, -INF, dtype=np.int64)
+    ins = np.full(n_nodes, INF, dtype=np.int64)
+    ins_from = np.full(n_nodes, -INF, dtype=np.int64)
+    ctrl = np.zeros((n_nodes, 3))
+    rho = np.ones(n_nodes)
+    state = np.zeros((n_nodes, STATE))
+    double = np.zeros(n_nodes, dtype=np.bool_)
+    curve = np.empty((MAX_SAMPLES, 3))
+    path = np.empty((MAX_SPAN_POINTS + 2, 3))
+    c = np.empty(3)
+    new = np.empty(STATE)
+    out[0] = 0
+    group = np.empty(n_nodes + 1, dtype=np.int64)  # first junction of each position
+    at_group = np.empty(n_nodes, dtype=np.int64)
+    n_groups = 0
+    for i in range(n_nodes):
+        if i == 0 or pos[i] != pos[i - 1]:
+            group[n_groups] = i
+            n_groups += 1
+        at_group[i] = n_groups - 1
+    group[n_groups] = n_nodes
+    lowest = 0  # position index: no span starts before the last sharp vertex
+    reach = -1  # the farthest start of the previous position
+    k = 0
+    while k < n_nodes:
+        gk = at_group[k]  # the position's index; its junctions are group[gk]..group[gk + 1] - 1
+        e = group[gk + 1]
+        while lowest < gk and pos[k] - pos[group[lowest]] > MAX_SPAN_POINTS:
+            lowest += 1
+        far = -1
+        for z in range(k, e):
+            if vert[z] >= 0 and is_end[vert[z]] and out[vert[z]] + OPEN_COST < ins[z]:
+                ins[z] = out[vert[z]] + OPEN_COST
+                ins_from[z] = -1
+                state[z] = 0.0
+            args = (q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
+            # the farthest position with a start that fits: from the previous position's, doubling
+            # steps back while spans fit (or forward while they do not), then halving
+            good, bad = -1, lowest - 1
+            guess = min(max(reach, lowest), gk - 1)
+            if reach >= 0 and _relax_at(guess, z, group, *args):
+                good = guess
+            else:
+                step = 1
+                bad = guess
+                while bad + step < gk and not _relax_at(bad + step, z, group, *args):
+                    bad += step
+                    step *= 2
+                if bad + step < gk:
+                    good = bad + step
+                else:  # the nearest few positions, one by one
+                    p = gk - 1
+                    while p > max(bad, gk - 1 - MAX_FAILS) and good < 0:
+                        if _relax_at(p, z, group, *args):
+                            good = p
+                        p -= 1
+                    bad = lowest - 1
+                    if good < 0:
+                        continue
+            if good == guess:
+                step = 1
+                while good - step >= lowest:
+                    if not _relax_at(good - step, z, group, *args):
+                        bad = good - step
+                        break
+                    good -= step
+                    step *= 2
+            while good - bad > 1:
+                mid = (good + bad) // 2
+                if _relax_at(mid, z, group, *args):
+                    good = mid
+                else:
+                    bad = mid
+            far = good if far < 0 else min(far, good)
+        if far >= 0:
+            reach = far
+        v = vert[k]
+        if v >= 0:
+            best = k
+            for z in range(k, e):
+                if ins[z] < ins[best]:
+                    best = z
+            for z in range(k, e):
+                if ins[best] + CORNER_COST < ins[z]:
+                    ins[z] = ins[best] + CORNER_COST
+                    ins_from[z] = -2 - best
+                    state[z] = state[best]
+            if is_end[v]:
+                close = CLOSE_COST + (restore_cost if v == n_pts - 1 else 0)
+                if ins[best] + close < out[v]:
+                    out[v] = ins[best] + close
+                    out_from[v] = best
+                nxt = v + 1
+                while nxt < n_pts and not is_end[nxt]:
+                    nxt += 1
+                if nxt < n_pts and out[v] + 1 < out[nxt]:
+                    out[nxt] = out[v] + 1
+                    out_from[nxt] = -1 - v
+            if sharp[v]:
+                lowest = gk
+        k = e
+    return out, out_from, ins, ins_from, ctrl, rho, double, state

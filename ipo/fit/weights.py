@@ -1,0 +1,138 @@
+"""Weights and knots of conic spans joined into one rational quadratic B-spline.
+
+A quadratic B-spline with simple knots is C1; its span k is the rational quadratic
+Bezier (J_k, P_k, J_k+1) whose end points J lie on the legs P_k P_k+1 of the control
+polygon. For the spans of ipo.fit.conic_plan (control points C_k = P_k, shape weights
+rho_k: the middle weight when the end weights are 1) the B-spline's weights w_k and
+knot intervals h_k follow from the junctions, lambda being where J lies on its leg
+(J = (1 - lambda) P_k + lambda P_k+1):
+
+    h_k+1 / h_k = (1 - lambda) w_k+1 / (lambda w_k)     (J where the knots put it)
+    1 / E = lambda / w_k+1 + (1 - lambda) / w_k          (E: J's weight in both spans)
+    rho_k = w_k / sqrt(E_k E_k+1)                         (span k's shape)
+
+With x_k = w_k / E_k: x_k+1 = lambda rho_k^2 / (rho_k^2 - (1 - lambda) x_k), which
+needs rho_k^2 > (1 - lambda) x_k, and E_k+1 = E_k x_k^2 / rho_k^2. x_1 of a run is
+free (any x_1 <= rho_1^2 keeps the next junction's condition); it is chosen to bring
+E back to the group's first weight. A parabola (rho = 1) after x = 1 leaves x = 1 and E
+as they are; conics do not, and consecutive ones drift the weights and the knot
+intervals geometrically. Where the condition fails, or the drift would pass
+LOG_WEIGHT_SPREAD over the group or LOG_INTERVAL_SPREAD within a run, the junction
+takes a knot of multiplicity 2 instead (it becomes a control point: one block more;
+the run, its x and its intervals start again; the weights' scale cannot, the point is
+shared).
+
+The state of a path at a junction (STATE values): x, log E, log w of the span into it,
+log h of that span (relative to its run's first), the group's smallest and largest
+log weight, and the run's smallest and largest log interval.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+STATE = 8
+X, LOG_E, LOG_W, LOG_H, W_LO, W_HI, H_LO, H_HI = range(STATE)
+LOG_WEIGHT_SPREAD = np.log(1e6)  # largest / smallest weight of a group
+LOG_INTERVAL_SPREAD = np.log(1e4)  # longest / shortest knot interval of a run
+LAMBDA_MIN = 1e-3  # a junction closer to a control point (fraction of the leg) takes a double knot
+
+
+@njit(cache=True)
+def _start_run(prev, rho, out):
+    """A run's first span from a junction of state prev: x_1 brings E back to the group's first."""
+    x = min(rho * rho, rho * np.exp(-0.5 * prev[LOG_E]))
+    out[X] = x
+    out[LOG_W] = prev[LOG_E] + np.log(x)
+    out[LOG_E] = prev[LOG_E] + 2.0 * np.log(x) - 2.0 * np.log(rho)
+    out[LOG_H] = 0.0
+    out[W_LO] = min(prev[W_LO], out[LOG_W], out[LOG_E])
+    out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
+    out[H_LO] = 0.0
+    out[H_HI] = 0.0
+    return out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD
+
+
+@njit(cache=True)
+def junction_lambda(c_prev, j, c):
+    leg = c - c_prev
+    len2 = leg @ leg
+    return ((j - c_prev) @ leg) / len2 if len2 > 0.0 else -1.0
+
+
+@njit(cache=True)
+def follow(run_start, c_prev, j, rho_prev, prev, c, rho, out):
+    """The state after a span (control point c, weight rho) that follows junction j (reached by a span
+    of control point c_prev, weight rho_prev, state prev; or the start of a run) into out, and its
+    blocks: 1 (it continues the run), 2 (a double knot at j), 0 (the weights cannot carry it)."""
+    if not run_start:
+        lam = junction_lambda(c_prev, j, c)
+        if LAMBDA_MIN <= lam <= 1.0 - LAMBDA_MIN:
+            den = rho_prev * rho_prev - (1.0 - lam) * prev[X]
+            if den > 0.0:
+                x = lam * rho_prev * rho_prev / den
+                out[X] = x
+                out[LOG_W] = prev[LOG_E] + np.log(x)
+                out[LOG_H] = prev[LOG_H] + np.log((1.0 - lam) / lam) + out[LOG_W] - prev[LOG_W]
+                out[LOG_E] = prev[LOG_E] + 2.0 * np.log(x) - 2.0 * np.log(rho)
+                out[W_LO] = min(prev[W_LO], out[LOG_W], out[LOG_E])
+                out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
+                out[H_LO] = min(prev[H_LO], out[LOG_H])
+                out[H_HI] = max(prev[H_HI], out[LOG_H])
+                if out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD:
+                    return 1
+    if not _start_run(prev, rho, out):
+        return 0
+    return 1 if run_start else 2
+
+
+def spline(items: list, degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Control points, weights (largest 1) and clamped knots of a group from its items, in order:
+    ('start', point), ('span', C, rho, end point, double, x) and ('corner', point). Each run's
+    parameter length is its chord length."""
+    points = [np.asarray(items[0][1], dtype=float)]
+    weights = [1.0]
+    intervals: list[float] = []
+    doubles: list[int] = []  # interval indices that start a run after another
+    run_h: list[float] = []
+    e, w_prev, c_prev, j = 1.0, 1.0, None, points[0]
+
+    def close_run():
+        chord = np.linalg.norm(np.diff(np.array(run_pts), axis=0), axis=1).sum()
+        h = np.array(run_h)
+        intervals.extend(h * chord / h.sum())
+
+    run_pts = [points[0]]
+    for item in items[1:]:
+        if item[0] == "corner":
+            c_prev = None
+            continue
+        _, c, rho, end, double, x = item
+        if c_prev is None or double:
+            if run_h:  # the junction (a corner, or a double knot) becomes a control point
+                close_run()
+                doubles.append(len(intervals))
+                run_h, run_pts = [], [j]
+                points.append(j)
+                weights.append(e)
+            h = 1.0
+        else:
+            lam = junction_lambda(c_prev, j, c)
+            h = run_h[-1] * (1.0 - lam) * (x * e) / (lam * w_prev)
+        w_prev = x * e
+        points.append(np.asarray(c, dtype=float))
+        weights.append(w_prev)
+        e = w_prev * x / rho**2
+        run_h.append(h)
+        c_prev, j = np.asarray(c, dtype=float), np.asarray(end, dtype=float)
+        run_pts.append(j)
+    close_run()
+    points.append(j)
+    weights.append(e)
+    t = np.concatenate([[0.0], np.cumsum(intervals)])
+    inner: list[float] = []
+    for k in range(1, len(intervals)):
+        inner += [t[k]] * (2 if k in doubles else 1)
+    knots = np.concatenate([[0.0] * (degree + 1), inner, [t[-1]] * (degree + 1)])
+    w = np.array(weights)
+    return np.array(points), w / w.max(), knots

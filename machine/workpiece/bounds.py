@@ -1,0 +1,130 @@
+"""Lower bounds of a run's envelope (numba): what lets the Z-map skip the segments that cannot cut.
+
+A run (machine/workpiece/chains.py) is segments whose ends lie within its deviation of one straight line
+A -> B: a segment between two of its points lies, point for point, within that deviation of the line's
+piece between the points' projections (distance to a line is convex). So a segment's envelope is at
+least that of a dilated tool on the line: a ball of radius r + e3, e3 lower (e3 the 3D deviation: the
+dilation of a ball by a ball); a flat or bull with its core wider by the horizontal deviation, lowered
+by the vertical one (exactly 0 on a level cut, so that level passes tie exactly). Along the line the
+bound G(s) = z(s) - drop + h(|q - xy(s)|) is convex in the line's parameter s, and its minimum G* over
+the line bounds every segment of the run. Over a square of nodes within e of its centre, the same tool
+with its core wider by e more, at the centre, bounds every node's G* (a bull: its envelope from a few
+bisections and the tangents at the bracket's ends, see envelope.bull_lower).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from machine.workpiece.chains import deviation
+from machine.workpiece.envelope import bull_lower, envelope, profile_mm, profile_slope
+
+HALVINGS = 10  # bisections of a square's bull bound (the tangents then bound it within about 1 um)
+# columns of the run table
+AX, AY, AZ, BX, BY, BZ, INV_LL, CORE, CORNER, DROP = range(10)
+COLUMNS = 10
+
+
+@njit(cache=True)
+def run_table(pos, starts, core, corner):
+    """Per run: its line's ends, 1 / |B - A|^2 (0 for a run standing still) and its bound tool."""
+    table = np.zeros((starts.shape[0] - 1, COLUMNS))
+    for c in range(starts.shape[0] - 1):
+        a, b = starts[c], starts[c + 1]
+        run = table[c]
+        run[AX], run[AY], run[AZ] = pos[a, 0], pos[a, 1], pos[a, 2]
+        run[BX], run[BY], run[BZ] = pos[b, 0], pos[b, 1], pos[b, 2]
+        ll = (pos[b, 0] - pos[a, 0]) ** 2 + (pos[b, 1] - pos[a, 1]) ** 2 + (pos[b, 2] - pos[a, 2]) ** 2
+        run[INV_LL] = 1.0 / ll if ll > 0.0 else 0.0
+        e3, exy, ez = deviation(pos, a, b)
+        if core == 0.0:
+            run[CORE], run[CORNER], run[DROP] = 0.0, corner + e3, e3
+        else:
+            run[CORE], run[CORNER], run[DROP] = core + exy, corner, ez
+    return table
+
+
+@njit(cache=True)
+def proj(pos, k, run):
+    """The line parameter s of point k's projection."""
+    return ((pos[k, 0] - run[AX]) * (run[BX] - run[AX]) + (pos[k, 1] - run[AY]) * (run[BY] - run[AY])
+            + (pos[k, 2] - run[AZ]) * (run[BZ] - run[AZ])) * run[INV_LL]
+
+
+@njit(cache=True)
+def bound_line(qx, qy, s, run, floor_mm):
+    """G(s) at node q."""
+    x, y = run[AX] + s * (run[BX] - run[AX]), run[AY] + s * (run[BY] - run[AY])
+    z = run[AZ] + s * (run[BZ] - run[AZ])
+    return max(z - run[DROP] + profile_mm(math.sqrt((qx - x) ** 2 + (qy - y) ** 2), run[CORE], run[CORNER]), floor_mm)
+
+
+@njit(cache=True)
+def bound_node(qx, qy, run, floor_mm):
+    """(G*, s*) at node q: G's minimum over the line and where it is reached."""
+    g, s = envelope(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], run[CORE], run[CORNER])
+    return max(g - run[DROP], floor_mm), s
+
+
+@njit(cache=True)
+def bound_plane(qx, qy, run):
+    """(G*(q), dG*/dx, dG*/dy, ok): G* is convex in q (the envelope of a convex tool along a line: the
+    minimum over s of a function convex in (s, q) jointly), so its tangent plane at q lies below it
+    everywhere. The slope is h'(rho*) towards q from the line point where G* is reached (Danskin's
+    theorem; at an end of the line the same plane still supports G*, since G does not fall into the
+    line there). ok is False where there is no plane: q beyond the tool's reach, or at its rim."""
+    core, corner = run[CORE], run[CORNER]
+    g, s = envelope(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, corner)
+    px, py = qx - run[AX] - s * (run[BX] - run[AX]), qy - run[AY] - s * (run[BY] - run[AY])
+    rho = math.sqrt(px * px + py * py)
+    slope = profile_slope(rho, core, corner)
+    if not (g < np.inf and slope < np.inf):
+        return g, 0.0, 0.0, False
+    if rho <= core or rho == 0.0:
+        return g - run[DROP], 0.0, 0.0, True
+    return g - run[DROP], slope * px / rho, slope * py / rho, True
+
+
+@njit(cache=True)
+def bound_square(qx, qy, run, e, floor_mm):
+    """A lower bound of G* over the nodes within e of q."""
+    core, corner = run[CORE] + e, run[CORNER]
+    if corner == 0.0:
+        g = envelope(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, 0.0)[0]
+    else:
+        g = bull_lower(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, corner, HALVINGS)
+    return max(g - run[DROP], floor_mm)
+
+
+@njit(cache=True)
+def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_out, s_out):
+    """(G*, s*) of a ball run at the ni x nj nodes (origin + (i0 + i, j0 + j) g), row by row into g_out and
+    s_out: envelope.env_ball's closed form (the cylinder's root, clamped to the line's ends) without
+    branches, so that the loop runs on the CPU's vector units."""
+    r = run[CORNER]
+    r2 = r * r
+    ax, ay, az, bx, by, bz = run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ]
+    dx, dy, dz = bx - ax, by - ay, bz - az
+    a = max(dx * dx + dy * dy, 1e-300)  # a vertical line: t is then 0 or 1 by the sign of zl's numerator
+    l2 = a + dz * dz
+    top = az + r - run[DROP]
+    for j in range(nj):
+        qy = origin_y + (j0 + j) * grid_mm
+        for i in range(ni):
+            qx = origin_x + (i0 + i) * grid_mm
+            px, py = qx - ax, qy - ay
+            pp = px * px + py * py
+            k = px * dx + py * dy
+            b = -k * dz
+            c = (pp - r2) * l2 - k * k
+            disc = b * b - a * c
+            sq = math.sqrt(max(disc, 0.0))
+            zl = -(b + sq) / a if b > 0.0 else c / max(sq - b, 1e-300) if sq - b > 0.0 else -b / a
+            t = min(max((k + zl * dz) / l2, 0.0), 1.0)
+            ex, ey = px - t * dx, py - t * dy
+            w = r2 - (ex * ex + ey * ey)
+            v = top + t * dz - math.sqrt(max(w, 0.0))
+            g_out[j * ni + i] = max(v, floor_mm) if disc >= 0.0 and w >= 0.0 else np.inf
+            s_out[j * ni + i] = t

@@ -1,0 +1,127 @@
+"""The Z-map's update: lower each node to the exact envelope of every period segment that passes over it,
+asking about runs of segments (chains.py) and bounding them from below (bounds.py) rather than evaluating
+one period at a time.
+
+A node's height after a batch of periods is min(height before, min over the segments k of env_k(q)),
+floored at the stock's bottom. Evaluating every segment near every node costs about 36 envelopes per node
+and pass of a 3 mm ball at 83 um a period (most of them lowering the node a little as the ball
+approaches), and again at every later pass within the tool's reach. Instead, per batch:
+
+STEP 1  Split the batch into runs, each within its deviation of one straight line (chains.py), with the
+        tools that bound them from below (bounds.run_table).
+STEP 2  List, per block of BLOCK x BLOCK tiles, the runs that reach it, in program order.
+STEP 3  Per tile, the listed runs its distance bound does not rule out (tiles.py).
+STEP 4  Per tile, the closest run first, then the others its planes do not rule out; per node, the exact
+        envelopes of the few segments near where each run's bound is least (tiles.py).
+
+Blocks are independent: the threads take every other block (nogil kernels). The heights are those of
+evaluating every segment at every node, to the float32 rounding of the stored heights (tests/machine/
+test_workpiece.py checks it against the per-segment minimum).
+"""
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from numba import njit
+
+from machine.workpiece.bounds import AX, AY, BX, BY, CORE, CORNER, run_table
+from machine.workpiece.chains import CHAIN_TOL_MM, MAX_SEGMENTS, build_chains
+from machine.workpiece.envelope import seg_distance
+from machine.workpiece.tiles import COUNTS, TILE, cut_tile, workspace
+
+BLOCK = 4  # tiles along a block's side
+
+
+@njit(cache=True)
+def _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners):
+    """STEP 2: (block, run) for every block within a run's reach, in run order, into blocks and owners;
+    their number (only counted while blocks is empty)."""
+    span = BLOCK * TILE
+    half = 0.5 * (span - 1)
+    e_block = half * grid_mm * math.sqrt(2.0)
+    n = 0
+    for c in range(runs.shape[0]):
+        run = runs[c]
+        x0, y0, x1, y1 = run[AX], run[AY], run[BX], run[BY]
+        reach = run[CORE] + run[CORNER] + e_block
+        y_lo, y_hi = min(y0, y1), max(y0, y1)
+        by0 = max(int(math.floor((y_lo - reach - origin_y) / grid_mm - half)) // span, 0)
+        by1 = min(int(math.ceil((y_hi + reach - origin_y) / grid_mm - half)) // span + 1, nby - 1)
+        for by in range(by0, by1 + 1):
+            my = origin_y + (by * span + half) * grid_mm
+            dy_row = max(y_lo - my, my - y_hi, 0.0)
+            if dy_row > reach:
+                continue
+            w = math.sqrt(reach * reach - dy_row * dy_row)
+            bx0 = max(int(math.floor((min(x0, x1) - w - origin_x) / grid_mm - half)) // span, 0)
+            bx1 = min(int(math.ceil((max(x0, x1) + w - origin_x) / grid_mm - half)) // span + 1, nbx - 1)
+            for bx in range(bx0, bx1 + 1):
+                if seg_distance(origin_x + (bx * span + half) * grid_mm, my, x0, y0, x1, y1)[0] > reach:
+                    continue
+                if blocks.shape[0]:
+                    blocks[n], owners[n] = by * nbx + bx, c
+                n += 1
+    return n
+
+
+@njit(cache=True)
+def plan(pos, tool, nty, ntx, geo):
+    """STEP 1 and 2: (run starts, run table, per block the offsets of its runs in `listed`, listed, the
+    blocks that have runs)."""
+    origin_x, origin_y, grid_mm, _ = geo
+    nby, nbx = -(-nty // BLOCK), -(-ntx // BLOCK)
+    starts = np.empty(pos.shape[0], np.int64)
+    starts = starts[:build_chains(pos, CHAIN_TOL_MM, MAX_SEGMENTS, starts) + 1]
+    runs = run_table(pos, starts, tool[0], tool[1])
+    empty = np.empty(0, np.int64)
+    n = _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, empty, empty)
+    blocks, owners = np.empty(n, np.int64), np.empty(n, np.int64)
+    _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners)
+    # the runs grouped by block (a stable counting sort keeps each block's runs in program order)
+    offsets = np.zeros(nby * nbx + 1, np.int64)
+    for p in range(blocks.shape[0]):
+        offsets[blocks[p] + 1] += 1
+    for t in range(nby * nbx):
+        offsets[t + 1] += offsets[t]
+    listed = np.empty(blocks.shape[0], np.int64)
+    fill = offsets[:-1].copy()
+    for p in range(blocks.shape[0]):
+        listed[fill[blocks[p]]] = owners[p]
+        fill[blocks[p]] += 1
+    return starts, runs, offsets, listed, np.nonzero(offsets[1:] > offsets[:-1])[0]
+
+
+@njit(cache=True, nogil=True)
+def cut_blocks(blocks, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, offsets, listed, counts):
+    """STEP 3 and 4 over the given blocks (any subset: blocks share no node)."""
+    nty, ntx = tile_max.shape
+    nbx = -(-ntx // BLOCK)
+    for u in range(blocks.shape[0]):
+        b = blocks[u]
+        mine = listed[offsets[b]:offsets[b + 1]]
+        ws = workspace(mine, runs)
+        counts[0] += mine.shape[0]
+        by, bx = b // nbx, b % nbx
+        for ty in range(by * BLOCK, min(by * BLOCK + BLOCK, nty)):
+            for tx in range(bx * BLOCK, min(bx * BLOCK + BLOCK, ntx)):
+                cut_tile(ty, tx, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, mine, ws, counts)
+
+
+def cut(z, line, tile_max, geo, pos, lines, tool, stamp_first, counts, threads=1):
+    """Lower z (ny, nx) along the segments pos[k] -> pos[k+1] (work mm) of the tool (core, corner); line[j, i]
+    takes lines[k] of the segment that set node (i, j); tile_max (TILE x TILE tiles) holds each tile's
+    highest node; geo: (origin_x, origin_y, grid_mm, floor_mm). stamp_first: the first segment counts even
+    when of zero length (the tool standing at the stream's start). counts (COUNTS, updated): (block, run)
+    pairs, searches, envelopes evaluated, nodes lowered."""
+    starts, runs, offsets, listed, touched = plan(pos, tool, *tile_max.shape, geo)
+    parts = [touched[k::threads] for k in range(threads)]
+    tallies = [np.zeros(COUNTS, np.int64) for _ in parts]
+    args = (z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, offsets, listed)
+    if threads == 1:
+        cut_blocks(parts[0], *args, tallies[0])
+    else:
+        with ThreadPoolExecutor(threads) as pool:
+            list(pool.map(lambda k: cut_blocks(parts[k], *args, tallies[k]), range(threads)))
+    counts += sum(tallies)

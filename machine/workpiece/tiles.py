@@ -1,0 +1,250 @@
+"""STEP 3 and 4 of the Z-map's update (machine/workpiece/removal.py), per tile of TILE x TILE nodes (numba).
+
+STEP 3  The runs listed for the tile's block that its distance bound min(z_A, z_B) - drop + h(d - e)
+        does not rule out (d: the tile centre's distance to the run's line, e the tile's half-diagonal),
+        each with a key: G where the line passes closest to the centre.
+STEP 4  The run with the lowest key first (usually the one passing closest: it leaves the nodes near
+        their final heights), then each other run unless its distance bound is above the tile's highest
+        node or its tangent plane of G* at the tile centre is nowhere below a node (bounds.bound_plane:
+        G* is convex in q). Each node then searches the runs whose G* there is below its height, in the
+        order of G*: the exact envelope of the segment whose projection holds s*, then of its
+        neighbours outwards while G at their near end is below the node's best (G is convex along the
+        line, so no further segment can be lower).
+A node's line is that of the first segment, in program order, that reached its new height: a segment
+takes a node that is lower, or as low by an earlier segment (ties between level passes are exact).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, bound_line,
+                                      bound_node, bound_plane, proj)
+from machine.workpiece.envelope import envelope
+
+TILE = 8  # nodes along a tile's side
+NODES = TILE * TILE
+# counts the update keeps: (block, run) pairs, searches, envelopes evaluated, nodes lowered
+COUNTS = 4
+
+
+@njit(cache=True)
+def _wins(v, k, best, idx):
+    """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
+    return v < best or (v == best and idx >= 0 and k < idx)
+
+
+@njit(cache=True)
+def _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp):
+    """The exact envelope of segment k (a zero-length one only as the stream's very first)."""
+    x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
+    if x0 == x1 and y0 == y1 and z0 == z1 and not (stamp and k == 0):
+        return best, idx
+    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, core, corner)[0], floor_mm)
+    if _wins(v, k, best, idx):
+        return v, k
+    return best, idx
+
+
+@njit(cache=True)
+def _search(qx, qy, s_star, best, idx, pos, a, b, run, core, corner, floor_mm, stamp):
+    """(best, idx, envelopes evaluated) at node q over the segments a .. b-1 of a run (STEP 4)."""
+    if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
+        best, idx = _try(qx, qy, a, best, idx, pos, core, corner, floor_mm, stamp)
+        return best, idx, 1
+    lo, hi = a, b - 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if proj(pos, mid, run) <= s_star:
+            lo = mid
+        else:
+            hi = mid - 1
+    best, idx = _try(qx, qy, lo, best, idx, pos, core, corner, floor_mm, stamp)
+    n = 1
+    for k in range(lo + 1, b):
+        n += 1
+        if not _wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
+            break
+        best, idx = _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp)
+    for k in range(lo - 1, a - 1, -1):
+        n += 1
+        if not _wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
+            break
+        best, idx = _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp)
+    return best, idx, n
+
+
+@njit(cache=True)
+def _plane_prunes(run, mx, my, grid_mm, floor_mm, a, best, idx):
+    """No node of the tile can take the run: its tangent plane of G* at the tile centre (bounds.bound_plane)
+    is nowhere below a node's best (an exact tie can still move a node's line to an earlier segment).
+    The counts are integer sums, which the vector units take without reordering floating-point sums."""
+    gc, gx, gy, ok = bound_plane(mx, my, run)
+    if not ok:
+        return False
+    below = 0
+    level = 0
+    for m in range(NODES):
+        plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
+                    floor_mm)
+        below += plane < best[m]
+        level += plane == best[m]
+    if below > 0:
+        return False
+    if level == 0:
+        return True
+    for m in range(NODES):
+        plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
+                    floor_mm)
+        if plane == best[m] and idx[m] > a:
+            return False
+    return True
+
+
+# rows of a block's table of its runs (_near), laid out for the scan of each tile
+NX0, NY0, NDX, NDY, NINV, NLOW, NZ0, NDZ, NCORE, NCORNER = range(10)
+
+
+@njit(cache=True)
+def _near(listed, runs):
+    """The listed runs' lines and bound tools, one row per quantity (STEP 3's scan reads them in order)."""
+    near = np.empty((10, listed.shape[0]))
+    for p in range(listed.shape[0]):
+        run = runs[listed[p]]
+        dx, dy = run[BX] - run[AX], run[BY] - run[AY]
+        bb = dx * dx + dy * dy
+        near[NX0, p], near[NY0, p], near[NDX, p], near[NDY, p] = run[AX], run[AY], dx, dy
+        near[NINV, p] = 1.0 / bb if bb > 1e-18 else 0.0
+        near[NLOW, p] = min(run[AZ], run[BZ]) - run[DROP]
+        near[NZ0, p], near[NDZ, p] = run[AZ] - run[DROP], run[BZ] - run[AZ]
+        near[NCORE, p], near[NCORNER, p] = run[CORE], run[CORNER]
+    return near
+
+
+@njit(cache=True)
+def _candidates(mx, my, e_tile, top, floor_mm, near, listed, scratch, cand, cand_bound, cand_key):
+    """STEP 3 for the tile centred at (mx, my): the listed runs whose distance bound is below top, with
+    that bound and their key (G where the line passes closest to the centre); (count, the lowest key's
+    place). The first loop has no branches, for the vector units."""
+    count = listed.shape[0]
+    for p in range(count):
+        px, py = mx - near[NX0, p], my - near[NY0, p]
+        dx, dy = near[NDX, p], near[NDY, p]
+        t = min(max((px * dx + py * dy) * near[NINV, p], 0.0), 1.0)
+        ex, ey = px - t * dx, py - t * dy
+        d = math.sqrt(ex * ex + ey * ey)
+        core, corner = near[NCORE, p], near[NCORNER, p]
+        u = min(max(d - e_tile - core, 0.0), corner)  # the tile's nearest point, clamped into the tool
+        bound = near[NLOW, p] + corner - math.sqrt(corner * corner - u * u)
+        w = min(max(d - core, 0.0), corner)
+        scratch[0, p] = max(bound, floor_mm) if d <= core + corner + e_tile else np.inf
+        scratch[1, p] = near[NZ0, p] + t * near[NDZ, p] + corner - math.sqrt(corner * corner - w * w)
+    n, first = 0, 0
+    for p in range(count):
+        if scratch[0, p] < top:
+            cand[n], cand_bound[n], cand_key[n] = listed[p], scratch[0, p], scratch[1, p]
+            if cand_key[n] < cand_key[first]:
+                first = n
+            n += 1
+    return n, first
+
+
+@njit(cache=True)
+def _search_nodes(r0, r1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept, best, idx, g_star, s_star, order,
+                  counts):
+    """Search the kept runs r0 .. r1-1 at each node of the tile whose first node is (i0, j0), in the order of
+    their G* there; returns the tile's highest node."""
+    origin_x, origin_y, grid_mm, floor_mm = geo
+    core, corner = tool
+    top = -np.inf
+    for m in range(NODES):
+        if best[m] == -np.inf:
+            continue
+        n = 0
+        for r in range(r0, r1):  # the runs that may lower the node, sorted by G* (insertion: a few)
+            if _wins(g_star[r, m], starts[kept[r]], best[m], idx[m]):
+                k = n
+                while k > 0 and g_star[order[k - 1], m] > g_star[r, m]:
+                    order[k] = order[k - 1]
+                    k -= 1
+                order[k] = r
+                n += 1
+        for k in range(n):
+            r = order[k]
+            c = kept[r]
+            a = starts[c]
+            if not _wins(g_star[r, m], a, best[m], idx[m]):
+                continue
+            best[m], idx[m], evaluated = _search(origin_x + (i0 + m % TILE) * grid_mm,
+                                                 origin_y + (j0 + m // TILE) * grid_mm, s_star[r, m],
+                                                 best[m], idx[m], pos, a, starts[c + 1], runs[c], core, corner,
+                                                 floor_mm, stamp_first and a == 0)
+            counts[1] += 1
+            counts[2] += evaluated
+        top = max(top, best[m])
+    return top
+
+
+@njit(cache=True)
+def workspace(listed, runs):
+    """A block's scratch arrays (one set per thread)."""
+    n = listed.shape[0]
+    return (_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64), np.empty(n, np.int64),
+            np.empty(n), np.empty(n), np.empty((n, NODES)), np.empty((n, NODES)), np.empty(n, np.int64),
+            np.empty(n, np.int64))
+
+
+@njit(cache=True)
+def cut_tile(ty, tx, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, listed, ws, counts):
+    """STEP 3 and 4 for one tile; geo: (origin_x, origin_y, grid_mm, floor_mm); tool: (core, corner);
+    stamp_first: the batch's first segment counts even when of zero length; listed: the runs of its block
+    in program order; ws: its block's workspace."""
+    origin_x, origin_y, grid_mm, floor_mm = geo
+    core, corner = tool
+    near, scratch, best, idx, cand, cand_bound, cand_key, g_star, s_star, order, kept_runs = ws
+    ny, nx = z.shape
+    e_tile = 0.5 * (TILE - 1) * grid_mm * math.sqrt(2.0)
+    i0, j0 = tx * TILE, ty * TILE  # node (i0 + m % TILE, j0 + m // TILE) is at origin + (i, j) g, as everywhere
+    mx, my = origin_x + (i0 + 0.5 * (TILE - 1)) * grid_mm, origin_y + (j0 + 0.5 * (TILE - 1)) * grid_mm
+    top = tile_max[ty, tx]
+    n, first = _candidates(mx, my, e_tile, top, floor_mm, near, listed, scratch, cand, cand_bound, cand_key)
+    if n == 0:
+        return
+    for m in range(NODES):
+        j, i = j0 + m // TILE, i0 + m % TILE
+        best[m] = z[j, i] if j < ny and i < nx else -np.inf
+        idx[m] = -1
+    kept = 0
+    for step in range(n):
+        q = first if step == 0 else (step - 1 if step <= first else step)
+        run = runs[cand[q]]
+        a = starts[cand[q]]
+        if step > 0 and (cand_bound[q] > top or _plane_prunes(run, mx, my, grid_mm, floor_mm, a, best, idx)):
+            continue
+        if core == 0.0:
+            ball_bounds(origin_x, origin_y, grid_mm, i0, j0, TILE, TILE, run, floor_mm, g_star[kept], s_star[kept])
+        else:
+            for m in range(NODES):
+                g_star[kept, m], s_star[kept, m] = bound_node(origin_x + (i0 + m % TILE) * grid_mm,
+                                                              origin_y + (j0 + m // TILE) * grid_mm, run, floor_mm)
+        counts[2] += NODES
+        kept_runs[kept] = cand[q]
+        kept += 1
+        if step == 0:
+            top = _search_nodes(0, 1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept_runs, best, idx,
+                                g_star, s_star, order, counts)
+    _search_nodes(1, kept, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept_runs, best, idx, g_star,
+                  s_star, order, counts)
+    new_top = -np.inf
+    for m in range(NODES):
+        j, i = j0 + m // TILE, i0 + m % TILE
+        if j >= ny or i >= nx:
+            continue
+        if idx[m] >= 0:
+            z[j, i] = best[m]
+            line[j, i] = lines[idx[m]]
+            counts[3] += 1
+        new_top = max(new_top, np.float64(z[j, i]))
+    tile_max[ty, tx] = new_top
