@@ -1,7 +1,8 @@
 """Chains: the stretches of a program that one fit may replace, and where they must stay sharp.
 
 A chain is a maximal sequence of feed moves (G1 lines and G2/G3 arcs) that follow
-each other without a gap, at one feed, under continuous path control (G64), with
+each other without a gap, at one feed (or feeds that are all at or above what the
+machine's axes can reach together: they move it alike), under continuous path control (G64), with
 nothing else in between; a caller adds its own condition (`joinable`, e.g. adjacent
 source lines written as plain motion blocks). Corners do not end a chain: a fit
 rounds them within the tolerance or keeps them sharp inside the curve (a knot of
@@ -101,14 +102,21 @@ def _path_of(moves: list, sag_mm: float) -> Chain:
                  np.concatenate(inside))
 
 
-def _continues(a, b) -> bool:
-    return (b.start == a.end and b.feed_mm_s == a.feed_mm_s and b.path == a.path
+def same_feed(a: float, b: float, reach_mm_s: float | None) -> bool:
+    """Do two programmed feeds move the machine alike? Equal, or both at or above the fastest path
+    speed its axes can reach together (neither ever limits the motion)."""
+    return a == b or (reach_mm_s is not None and min(a, b) >= reach_mm_s)
+
+
+def _continues(a, b, reach_mm_s: float | None) -> bool:
+    return (b.start == a.end and same_feed(a.feed_mm_s, b.feed_mm_s, reach_mm_s) and b.path == a.path
             and not b.path.exact_stop and not (isinstance(b, Arc) and b.turns))
 
 
-def split_chains(entities: Iterable, tol_mm: float,
-                 joinable: Callable[[object, object], bool] | None = None) -> list[Chain]:
-    """Every chain of two moves or more, in program order; zero-length moves end a chain."""
+def split_chains(entities: Iterable, tol_mm: float, joinable: Callable[[object, object], bool] | None = None,
+                 reach_mm_s: float | None = None) -> list[Chain]:
+    """Every chain of two moves or more, in program order; zero-length moves end a chain. reach_mm_s:
+    the machine's fastest path speed (same_feed), None: feeds must be equal."""
     runs: list[list] = []
     current: list = []
     for e in entities:
@@ -116,7 +124,7 @@ def split_chains(entities: Iterable, tol_mm: float,
         if not movable or (isinstance(e, Arc) and e.turns):
             current = []
             continue
-        if current and _continues(current[-1], e) and (joinable is None or joinable(current[-1], e)):
+        if current and _continues(current[-1], e, reach_mm_s) and (joinable is None or joinable(current[-1], e)):
             current.append(e)
         else:
             current = [e]

@@ -40,6 +40,7 @@ LONG_LEG = 1.5  # a segment this much longer than its shorter neighbour gets a j
 MAX_SPAN_POINTS = 400  # path points inside one span at most
 MAX_FAILS = 8  # spans from the nearest junctions back that may fail before a junction gives up
 INF = 1 << 40
+BOTH, ARRIVE, LEAVE = 0, 1, 2  # what spans a junction may take: a sharp corner's sides are one-way
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,6 +52,7 @@ class Junctions:
     point: np.ndarray  # (N, 3) mm
     tangent: np.ndarray  # (N, 3) unit
     vertex: np.ndarray  # (N,) int
+    role: np.ndarray  # (N,) BOTH, or at a sharp vertex ARRIVE (its incoming directions) or LEAVE
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -67,24 +69,34 @@ def junctions(points: np.ndarray, tan_in: np.ndarray, tan_out: np.ndarray, on_ar
     d = np.diff(points, axis=0)
     h = np.linalg.norm(d, axis=1)
     u = d / h[:, None]
-    smooth = np.empty_like(points)
+    # tangents of the parabola through three points: at the middle one, and at the first (leaving,
+    # `ahead`) or the last (arriving, `behind`): the smooth directions on either side of a corner
+    smooth, ahead, behind = np.empty_like(points), tan_out.copy(), tan_in.copy()
     if n >= 2:
         a, b = h[:-1, None], h[1:, None]
-        smooth[1:-1] = _unit(b * u[:-1] + a * u[1:])  # the parabola through three points
-        smooth[0] = _unit((2 * h[0] + h[1]) * u[0] - h[0] * u[1])
-        smooth[-1] = _unit((2 * h[-1] + h[-2]) * u[-1] - h[-1] * u[-2])
+        smooth[1:-1] = _unit(b * u[:-1] + a * u[1:])
+        ahead[:-2] = _unit((2 * a + b) * u[:-1] - a * u[1:])
+        behind[2:] = _unit((2 * b + a) * u[1:] - b * u[:-1])
+        smooth[0], smooth[-1] = ahead[0], behind[-1]
     else:
         smooth[:] = u[0]
     smooth[on_arc] = tan_out[on_arc]
+    chord = np.zeros(n + 1, dtype=bool)  # an arc's chord leaves / arrives: its exact tangent is known
+    chord[:-1] |= on_arc[1:]
+    ahead[chord] = tan_out[chord]
+    chord[:] = False
+    chord[1:] |= on_arc[:-1]
+    behind[chord] = tan_in[chord]
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", tan_in, tan_out), -1.0, 1.0))
     leg = _leg_junctions(points, u, h, turn, on_arc)
-    pos, pt, tan, vert = [], [], [], []
+    pos, pt, tan, vert, role = [], [], [], [], []
 
-    def add(p, x, t, v):
+    def add(p, x, t, v, r=BOTH):
         pos.append(p)
         pt.append(x)
         tan.append(t)
         vert.append(v)
+        role.append(r)
 
     for i in range(n + 1):
         if on_arc[i]:
@@ -93,13 +105,20 @@ def junctions(points: np.ndarray, tan_in: np.ndarray, tan_out: np.ndarray, on_ar
             ends = (i == 0, i == n)
             if not sharp[i]:
                 add(float(i), points[i], smooth[i], i)
-            if ends[0] or turn[i] > CORNER_OPTION_RAD or sharp[i]:
-                add(float(i), points[i], tan_out[i], i)
-            if (ends[1] or turn[i] > CORNER_OPTION_RAD or sharp[i]) and not ends[0]:
-                add(float(i), points[i], tan_in[i], i)
+            corner = turn[i] > CORNER_OPTION_RAD or sharp[i]
+            leave, arrive = (LEAVE, ARRIVE) if sharp[i] else (BOTH, BOTH)
+            if ends[0] or corner:
+                add(float(i), points[i], tan_out[i], i, leave)
+                if corner and 0 < i < n - 1:
+                    add(float(i), points[i], ahead[i], i, leave)
+            if (ends[1] or corner) and not ends[0]:
+                add(float(i), points[i], tan_in[i], i, arrive)
+                if corner and 1 < i < n:
+                    add(float(i), points[i], behind[i], i, arrive)
         if i < n and leg[i]:
             add(i + 0.5, 0.5 * (points[i] + points[i + 1]), u[i], -1)
-    return Junctions(np.array(pos), np.array(pt), _unit(np.array(tan)), np.array(vert, dtype=np.int64))
+    return Junctions(np.array(pos), np.array(pt), _unit(np.array(tan)), np.array(vert, dtype=np.int64),
+                     np.array(role, dtype=np.int64))
 
 
 def _leg_junctions(points: np.ndarray, u: np.ndarray, h: np.ndarray, turn: np.ndarray,
@@ -119,9 +138,12 @@ def _leg_junctions(points: np.ndarray, u: np.ndarray, h: np.ndarray, turn: np.nd
 
 
 @njit(cache=True)
-def _relax(j, z, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new):
+def _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c,
+           new):
     """Test the span from junction j to junction z and take it where it makes z cheaper; whether
     the span fits (whatever it costs)."""
+    if role[j] == ARRIVE or role[z] == LEAVE:
+        return False
     lo = int(np.floor(pos[j])) + 1
     count = int(np.ceil(pos[z])) - 1 - lo + 3
     if not control_point(pt[j], tan[j], pt[z], tan[z], gap_mm, c):
@@ -142,19 +164,19 @@ def _relax(j, z, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, stat
 
 
 @njit(cache=True)
-def _relax_at(g, z, group, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
-              c, new):
+def _relax_at(g, z, group, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve,
+              path, c, new):
     """_relax from every junction of position g; whether any span fits."""
     fits = False
     for j in range(group[g], group[g + 1]):
-        if _relax(j, z, q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
+        if _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path,
                   c, new):
             fits = True
     return fits
 
 
 @njit(cache=True)
-def plan_kernel(q, pos, pt, tan, vert, is_end, sharp, tol_mm, gap_mm, restore_cost):
+def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, restore_cost):
     """The shortest path of the module doc. Returns (out, out_from, ins, ins_from, ctrl, rho, double,
     state): out[v] the fewest blocks up to move end v with no group open, out_from[v] >= 0 the
     junction whose group closed there, -1 - e: a move kept from move end e; ins[k] with a group
@@ -196,11 +218,11 @@ def plan_kernel(q, pos, pt, tan, vert, is_end, sharp, tol_mm, gap_mm, restore_co
             lowest += 1
         far = -1
         for z in range(k, e):
-            if vert[z] >= 0 and is_end[vert[z]] and out[vert[z]] + OPEN_COST < ins[z]:
+            if vert[z] >= 0 and is_end[vert[z]] and role[z] != ARRIVE and out[vert[z]] + OPEN_COST < ins[z]:
                 ins[z] = out[vert[z]] + OPEN_COST
                 ins_from[z] = -1
                 state[z] = 0.0
-            args = (q, pos, pt, tan, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
+            args = (q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
             # the farthest position with a start that fits: from the previous position's, doubling
             # steps back while spans fit (or forward while they do not), then halving
             good, bad = -1, lowest - 1

@@ -1,15 +1,12 @@
 """Program -> program: replace chains of G01/G02/G03 moves by G06.2 (or G5.2) groups within a tolerance.
 
-Chains run through corners (ipo.fit.chains). With G06.2 (the default) each chain is planned
-as rational quadratic conic spans with their own knots and weights (ipo.fit.conic_plan,
-ipo.fit.weights); with G5.2, or a degree of 3 or more, as 001's rational fits on uniform
-knots (ipo.fit.groups). A group keeps a sharp corner as a knot of multiplicity = degree. Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
-so that each entity is tied to its source line together with the units, distance
-mode and offsets in force there); every line outside a fitted piece is copied
-unchanged. A G06.2 group starts at the current position (its first block carries
-no axis word) and its last control point is the run's last vertex, written with
-enough digits to reproduce it exactly. The curve as written (rounded coordinates
-and weights) is checked against the tolerance again; a piece that fails stays G01.
+Chains run through corners (ipo.fit.chains). G06.2 (the default) writes rational quadratic conic
+spans with their own knots and weights (ipo.fit.conic_plan, ipo.fit.weights); G5.2, or a degree
+of 3 or more, 001's rational fits on uniform knots (ipo.fit.groups); a sharp corner is a knot of
+multiplicity = degree. The program is interpreted once, line by line, so each entity keeps its
+source line and the modes and offsets in force there; lines outside a fitted piece are copied
+unchanged. The curve as written (rounded) is checked against the tolerance again; a piece that
+fails stays G01.
 """
 from __future__ import annotations
 
@@ -30,6 +27,7 @@ from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.rational import RationalFit
 from ipr import Setup, parse_line
 from ipr.entities import Arc, Line
+from ipr.gcodes import FEED_PER_MINUTE
 from ipr.interpreter import Interpreter
 
 PURE_LETTERS = frozenset("NGXYZIJKRF")
@@ -52,12 +50,14 @@ class Frame:
     absolute: bool
     offset_mm: tuple[float, float, float]
     plane: str = "XY"
+    per_minute: bool = True  # G94 (a G93/G95 block carries its own feed: not fitted)
 
 
 @dataclass(slots=True)
 class ConvertReport:
     chains: int = 0  # chains of two moves or more (G1/G2/G3 without a break)
     sharp_corners: int = 0  # vertices kept sharp inside groups (a knot of multiplicity = degree)
+    feeds_merged: int = 0  # feed changes inside groups (all beyond the machine's reach)
     groups: int = 0
     moves_replaced: int = 0
     kept_g01: list[tuple[int, str]] = field(default_factory=list)  # (source line, why) pieces left G01
@@ -71,12 +71,8 @@ class ConvertReport:
 
 def count_blocks(text: str) -> int:
     """Lines that carry a word (not blank, not comment-only, not '%')."""
-    n = 0
-    for raw in text.split("\n"):
-        s = re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip()
-        if s and s != "%":
-            n += 1
-    return n
+    words = (re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip() for raw in text.split("\n"))
+    return sum(1 for s in words if s and s != "%")
 
 
 def fmt(value: float, digits: int) -> str:
@@ -105,7 +101,8 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
             counts[n] = len(out)
             if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
-                frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane)
+                frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane,
+                                  st.feed_mode == FEED_PER_MINUTE)
             entities.extend(out)
             out.clear()
         if interp.done:
@@ -155,6 +152,21 @@ def _with_motion(text: str, code: str) -> str | None:
     return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
 
 
+def _restored(text: str, code: str, feed: str | None) -> str:
+    return _with_feed(_with_motion(text, code), feed)
+
+
+def _with_feed(text: str, feed: str | None) -> str:
+    """The block with an F word appended where it needs one (a group before it left another feed)."""
+    if feed is None or any(l == "F" for l, _ in parse_line(text).words):
+        return text
+    return f"{text.rstrip()} F{feed}"
+
+
+def feed_text(feed_mm_s: float, frame: Frame) -> str:
+    return fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)
+
+
 def _written(fit: RationalFit, frame: Frame, digits: int) -> tuple[list[list[str]], np.ndarray]:
     """The axis words of control points 1.. (absolute or, in G91, relative to the previous one; the
     last one as exact as the source's own number) and every control point as these words put it."""
@@ -185,7 +197,7 @@ def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) ->
     def r_word(i):
         return "" if weights[i] == 1.0 else f" R{fmt(weights[i], weight_decimals(weights[i]))}"
 
-    out = [f"G06.2 P{p + 1} K{fmt(knots[0], KNOT_DIGITS)}{r_word(0)} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)}"]
+    out = [f"G06.2 P{p + 1} K{fmt(knots[0], KNOT_DIGITS)}{r_word(0)} F{feed_text(feed_mm_s, frame)}"]
     prev = None
     for i, vals in enumerate(written, 1):
         axes = "".join(f" {a}{v}" for a, v, pv in zip("XYZ", vals, prev or (None,) * 3)
@@ -213,7 +225,7 @@ def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> t
     weights[0] = 1.0
     out = []
     for i, vals in enumerate(written, 1):
-        head = f"G5.2 L{fit.degree + 1} F{fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)} " if i == 1 else ""
+        head = f"G5.2 L{fit.degree + 1} F{feed_text(feed_mm_s, frame)} " if i == 1 else ""
         out.append(f"{head}X{vals[0]} Y{vals[1]} P{fmt(weights[i], 6)}")
     out.append("G5.3")
     pts[:, 2] = fit.points[0, 2]
@@ -222,11 +234,13 @@ def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> t
 
 def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_deg: float = DEFAULT_CORNER_DEG,
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
-                 accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0,
+                 accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0, reach_mm_s: float | None = None,
                  dialect: str = "g06.2") -> tuple[str, ConvertReport]:
     """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes
     for the fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the
-    sharp-corner test of ipo.fit.chains; dialect: "g06.2" (Fanuc, 3-D, knots written, groups
+    sharp-corner test of ipo.fit.chains; reach_mm_s: the fastest path speed its axes reach together
+    (feeds at or above it are one feed, ipo.fit.chains.same_feed; default that of max_feed_mm_s on
+    three axes; 0: never merge feeds); dialect: "g06.2" (Fanuc, 3-D, knots written, groups
     through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece);
     degree: None for the dialect's own (2, conic spans, for G06.2; 3 for G5.2))."""
     if dialect not in DIALECTS:
@@ -239,7 +253,8 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
         raise ValueError(f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
     lines = text.split("\n")  # as the IPR numbers lines: "\n" only
     entities, frames, counts = _interpret(lines, file, setup)
-    pure = {n for n in frames if _pure(lines[n - 1])}
+    pure = {n for n in frames if frames[n].per_minute and _pure(lines[n - 1])}
+    reach = math.sqrt(3.0) * max_feed_mm_s if reach_mm_s is None else (reach_mm_s or None)
 
     def joinable(a, b) -> bool:
         return b.line == a.line + 1 and a.line in pure and b.line in pure and frames[a.line] == frames[b.line]
@@ -250,7 +265,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     prefix: dict[int, str] = {}  # source line -> the motion code it needs after a group
     after: dict[int, list[str]] = {}  # source line -> blocks written after it
     t0 = time.perf_counter()
-    chains = [c for c in split_chains(entities, tol_mm, joinable) if c.moves[0].line in pure]
+    chains = [c for c in split_chains(entities, tol_mm, joinable, reach) if c.moves[0].line in pure]
     if dialect == "g5.2":  # LinuxCNC's G5.2 lies in the XY plane and cannot move Z
         flat = [frames[c.moves[0].line].plane == "XY" and np.ptp(c.points[:, 2]) == 0.0 for c in chains]
         report.kept_g01 += [(c.moves[0].line, "not in the XY plane at one Z (G5.2)")
@@ -262,23 +277,26 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
                for c in chains]
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
     for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
-        new, last_is_group = _convert_chain(chain, spans, lines, frames[chain.moves[0].line], tol_mm, report,
+        frame = frames[chain.moves[0].line]
+        new, last_is_group = _convert_chain(chain, spans, lines, frame, tol_mm, report,
                                             g52_text if dialect == "g5.2" else group_text)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
         skip.update(m.line for m in chain.moves)
         if last_is_group:
-            _restore_motion(lines, chain.moves[-1].line, motion_code(chain.moves[-1]), after, prefix)
+            last = chain.moves[-1]
+            feed = None if last.feed_mm_s == _group_feed(chain, spans[-1]) else feed_text(last.feed_mm_s, frame)
+            _restore_motion(lines, last.line, motion_code(last), feed, after, prefix)
     report.fit_time_s = time.perf_counter() - t0
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
         if n in replaced:
             new = replaced[n]
             # a chain that starts with a kept move right after a group ending the previous chain
-            out += [_with_motion(new[0], prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
+            out += [_restored(new[0], *prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
         elif n not in skip:
-            out.append(_with_motion(raw, prefix[n]) if n in prefix else raw)
+            out.append(_restored(raw, *prefix[n]) if n in prefix else raw)
         out += after.get(n, [])
     result = "\n".join(out)
     report.bytes_after = len(result.encode())
@@ -294,16 +312,19 @@ def _restore_cost(lines: list[str], last: int) -> int:
     return 0 if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, "G1") is not None else 1
 
 
-def _restore_motion(lines: list[str], last: int, code: str, after: dict, prefix: dict) -> None:
+def _restore_motion(lines: list[str], last: int, code: str, feed: str | None, after: dict, prefix: dict) -> None:
     """After a group that ends a chain: the next block that relies on the modal motion gets the code
-    the program had there, on itself where it is the very next block, else as a block of its own."""
+    the program had there, on itself where it is the very next block, else as a block of its own;
+    feed: the program's feed there where the group left another (restored the same way, or alone)."""
     if not _needs_motion_mode(lines, last):
+        if feed is not None:
+            after[last] = [f"F{feed}"]
         return
     nxt = lines[last] if last < len(lines) else ""
     if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, code) is not None:
-        prefix[last + 1] = code
+        prefix[last + 1] = (code, feed)
     else:
-        after[last] = [code]
+        after[last] = [code if feed is None else f"{code} F{feed}"]
 
 
 def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_mm_s2: float,
@@ -332,14 +353,16 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
     digits = coordinate_digits(tol_mm, frame.unit_mm)
     out: list[str] = []
     after_group = any_group = False
+    group_feed = 0.0
     for span in spans:
         moves = chain.moves[span.first:span.last]
-        group = _group_for(span, moves, frame, digits, tol_mm, chain.sag_mm, report, writer) \
-            if span.fit is not None else None
+        group = _group_for(span, moves, _group_feed(chain, span), frame, digits, tol_mm, chain.sag_mm, report,
+                           writer) if span.fit is not None else None
         if group is None:
             src = [lines[m.line - 1] for m in moves]
-            if after_group:
-                src[0] = _with_motion(src[0], motion_code(moves[0]))  # pure blocks: G1/G2/G3 or none
+            if after_group:  # pure blocks: G1/G2/G3 or none; the program's feed if the group wrote another
+                feed = None if moves[0].feed_mm_s == group_feed else feed_text(moves[0].feed_mm_s, frame)
+                src[0] = _restored(src[0], motion_code(moves[0]), feed)
             out += src
             if span.fit is None:
                 report.kept_g01.append((moves[0].line, "no group saves blocks"))
@@ -347,6 +370,8 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
         else:
             out += group
             after_group = any_group = True
+            group_feed = _group_feed(chain, span)
+            report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
             report.groups += 1
             report.moves_replaced += len(moves)
             p = span.fit.degree
@@ -357,8 +382,13 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
     return out, after_group
 
 
-def _group_for(span: Span, moves, frame, digits, tol_mm, sag_mm, report, writer) -> list[str] | None:
-    text, written = writer(span.fit, moves[0].feed_mm_s, frame, digits)
+def _group_feed(chain: Chain, span: Span) -> float:
+    """A group's F: the lowest its moves have (they differ only where all are beyond the machine's reach)."""
+    return min(m.feed_mm_s for m in chain.moves[span.first:span.last])
+
+
+def _group_for(span: Span, moves, feed_mm_s, frame, digits, tol_mm, sag_mm, report, writer) -> list[str] | None:
+    text, written = writer(span.fit, feed_mm_s, frame, digits)
     dev = written_deviation_mm(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
     if dev > tol_mm:
         report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))

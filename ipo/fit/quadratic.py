@@ -59,7 +59,7 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     is_end[0] = True
     is_end[chain.ends] = True
     tol = opt.tol_mm * (1.0 - TEST_MARGIN) - chain.sag_mm
-    result = plan_kernel(chain.points, cand.pos, cand.point, cand.tangent, cand.vertex, is_end, sharp,
+    result = plan_kernel(chain.points, cand.pos, cand.point, cand.tangent, cand.vertex, cand.role, is_end, sharp,
                          tol, GAP_FRACTION * opt.tol_mm, opt.restore_blocks)
     back = result + (cand.pos, cand.point, cand.vertex)
     out, out_from = result[0], result[1]

@@ -33,7 +33,7 @@ from numba import njit
 
 STATE = 8
 X, LOG_E, LOG_W, LOG_H, W_LO, W_HI, H_LO, H_HI = range(STATE)
-LOG_WEIGHT_SPREAD = np.log(1e6)  # largest / smallest weight of a group
+LOG_WEIGHT_SPREAD = np.log(1e9)  # largest / smallest weight of a group
 LOG_INTERVAL_SPREAD = np.log(1e4)  # longest / shortest knot interval of a run
 LAMBDA_MIN = 1e-3  # a junction closer to a control point (fraction of the leg) takes a double knot
 

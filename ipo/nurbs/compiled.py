@@ -10,10 +10,15 @@ Two forms of the same curve (000 eq. 1-4):
   this is the specialised basis evaluation the interpolators run on.
 The span-polynomial functions allocate nothing; the Cox-de Boor ones allocate small scratch
 arrays and serve checks, not the per-period loops.
+
+`compile_curve` returns the curve as one record, `SpanCurve` (a NamedTuple, which numba
+compiles as a struct): the interpolators' kernels take that (ipo.interp); the evaluation
+functions here take the arrays they read.
 """
 from __future__ import annotations
 
 from math import factorial, sqrt
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -144,11 +149,22 @@ def _rational2(aw, out):
         out[2, c] = (aw[2, c] - 2.0 * w1 * c1 - w2 * c0) / w0
 
 
-def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: np.ndarray):
-    """Span polynomials of a clamped NURBS: (breaks (S+1), inv_h (S), coef (S, p+1, 4)).
+class SpanCurve(NamedTuple):
+    """A clamped NURBS as the per-period kernels read it (compile_curve)."""
 
-    coef[i, k] is the k-th power-form coefficient in t of (h*B, h) on span i."""
+    breaks: np.ndarray  # (S+1) the ends of the non-empty knot spans
+    inv_h: np.ndarray  # (S) 1 / span width
+    coef: np.ndarray  # (S, p+1, 4): [i, k] the k-th power-form coefficient in t of (h*B, h) on span i
+    end: np.ndarray  # (3) the last control point, where the curve ends
+    u_min: float
+    u_max: float
+    polygon_mm: float  # length of the control polygon (000 eq. 10)
+
+
+def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: np.ndarray) -> SpanCurve:
+    """The span polynomials of a clamped NURBS, with its end and parameter range."""
     knots = np.asarray(knots, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64)
     p = int(degree)
     breaks = np.unique(knots[p:len(knots) - p])
     a, b = breaks[:-1], breaks[1:]
@@ -160,7 +176,8 @@ def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: n
     h = b - a
     scale = np.array([h**k / factorial(k) for k in range(p + 1)]).T  # (S, p+1)
     coef = np.ascontiguousarray(hom * scale[:, :, None])
-    return breaks, 1.0 / h, coef
+    return SpanCurve(breaks, 1.0 / h, coef, np.ascontiguousarray(points[-1]), float(knots[0]), float(knots[-1]),
+                     float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()))
 
 
 @njit(cache=True)

@@ -10,6 +10,7 @@ user gains on vcnc's controller: cycle time and feed fluctuation of both program
 """
 from __future__ import annotations
 
+import math
 import sys
 
 import click
@@ -30,6 +31,8 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
         " a group counted as written: a block per control point, plus the closing knot blocks of G06.2"
         " or the G5.3 of G5.2)",
         f"bytes            {rep.bytes_before} -> {rep.bytes_after}  ({ratio_bytes:.2f}x fewer)",
+        *([f"feeds            {rep.feeds_merged} feed changes inside groups: all at or above what the machine's"
+           " axes reach together, so alike; each group is written with its lowest F"] if rep.feeds_merged else []),
         f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um",
         f"fit time         {rep.fit_time_s:.2f} s",
     ]
@@ -79,11 +82,13 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
         raise click.ClickException(f"machine file {machine}: {err}") from None
     accel = min(a.max_accel_mm_s2 for a in config.axes)
     vmax = min(a.max_velocity_mm_s for a in config.axes)
+    reach = math.sqrt(sum(a.max_velocity_mm_s**2 for a in config.axes))
     with open(src, "rb") as f:
         text = f.read().decode("utf-8", "replace")
     try:
         result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
-                                      accel_mm_s2=accel, max_feed_mm_s=vmax, dialect=dialect)
+                                      accel_mm_s2=accel, max_feed_mm_s=vmax, reach_mm_s=reach,
+                                      dialect=dialect)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)

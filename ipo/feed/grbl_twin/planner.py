@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+from ipo.feed.grbl_twin.numbers import to_steps
+
 BLOCK_BUFFER_SIZE = 16  # planner.h: one slot always empty, 15 blocks usable
 MINIMUM_JUNCTION_SPEED_MM_MIN = 0.0  # config.h
 MINIMUM_FEED_RATE_MM_MIN = 1.0  # config.h
@@ -100,8 +102,7 @@ class Planner:
         (grbl drops it). The caller checks `full()` first, as mc_line waits for a free block."""
         b = self.ring[self.head]
         # 1. steps and the unit vector, from the rounded step targets
-        target = [int(math.floor(t * s + 0.5)) if t >= 0 else -int(math.floor(-t * s + 0.5))
-                  for t, s in zip(target_mm, self.steps_per_mm)]  # C lround: halves away from zero
+        target = [to_steps(t, s) for t, s in zip(target_mm, self.steps_per_mm)]
         delta = [(t - p) / s for t, p, s in zip(target, self.position, self.steps_per_mm)]
         b.steps = [abs(t - p) for t, p in zip(target, self.position)]
         b.step_event_count = max(b.steps)

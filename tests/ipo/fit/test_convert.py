@@ -123,6 +123,25 @@ def test_runs_break_at_feed_changes_and_corners():
     assert rep.chains == 2 and feeds == [2000, 3000]
 
 
+def test_feeds_beyond_the_machines_reach_share_a_group_and_the_programs_feed_comes_back():
+    """The default machine's axes reach 173.2 mm/s together (100 mm/s each): F20000 and F30000 mm/min
+    (333 and 500 mm/s) move it alike, so one group covers both, written with the lower F; the
+    modal moves after the run get the program's own F30000 back. F3000 and F4000 stay apart."""
+    _, words = _ellipse_run(n=60)
+    tail = ["X-20 Y-20 Z-1", "X-30 Y-20 Z-1"]
+    src = "\n".join(["G21 G90", f"G0 {words[0]}", f"G1 {words[1]} F20000", *words[2:30],
+                     f"{words[30]} F30000", *words[31:], *tail, "M2", ""])
+    out, rep = convert_text(src, 0.01)
+    assert rep.chains == 1 and rep.groups == 1 and rep.feeds_merged == 1
+    assert "F20000" in next(line for line in out.split("\n") if line.startswith("G06.2"))
+    after = parse_text(out).entities
+    assert [round(e.feed_mm_s * 60) for e in after if isinstance(e, Line)][-2:] == [30000, 30000]
+    assert [e.end for e in after if isinstance(e, Line)][-2:] == [(-20.0, -20.0, -1.0), (-30.0, -20.0, -1.0)]
+    slow = src.replace("F20000", "F3000").replace("F30000", "F4000")
+    assert convert_text(slow, 0.01)[1].chains == 2
+    assert convert_text(src, 0.01, reach_mm_s=0.0)[1].chains == 2  # merging off
+
+
 def test_worker_processes_give_the_same_program():
     # several runs (a feed change ends each), fitted in two worker processes and in this one
     runs = []

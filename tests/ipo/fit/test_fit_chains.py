@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from ipr import parse_text
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs
 from ipo.fit.chains import rounding_radius_mm
-from ipo.fit.convert import convert_text, count_blocks, rounding_bound_mm
+from ipo.fit.convert import convert_text, coordinate_digits, count_blocks, rounding_bound_mm
 
 
 
@@ -128,10 +128,42 @@ def test_random_corners_within_tolerance_both_ways_and_sharp_ones_exact(seed):
     sharp = [(v, t) for v, t in corners if t > np.radians(30.0)
              and (1200 / 60) ** 2 > 1000.0 * rounding_radius_mm(np.array(t), 0.00913)]
     assert sharp
+    ctrl = np.vstack([e.points for e in after if isinstance(e, Nurbs)] + [np.array([e.end]) for e in after
+                                                                          if isinstance(e, Line)])
     for vertex, _ in sharp:
-        # the curve passes through the vertex (a control point of a knot of multiplicity p), up to
-        # the rounding of the written control point
+        # the curve passes through the vertex, up to the rounding of the written control point
         assert np.min(np.linalg.norm(written - vertex, axis=1)) <= slack
+        # as a corner: the vertex is a control point (a knot of multiplicity = degree), or ends a G1
+        assert np.min(np.linalg.norm(ctrl - vertex, axis=1)) <= slack
+
+
+def test_raster_step_overs_stay_corners():
+    """A zig-zag raster at F5000: the 0.2 mm step-overs turn 90 degrees twice, which no rounding within
+    10 um allows at 83 mm/s and 1000 mm/s^2 (radius 24 um, 289,000 mm/s^2). Each pass's end and the next
+    one's start are control points of the group (knots of multiplicity 2): the curve turns there, not in
+    a tiny turn beside them."""
+    x = np.linspace(0.0, 40.0, 81)
+    lines = ["G21 G90 G17 G64", "G0 X0 Y0 Z0"]
+    corners = []
+    for k in range(4):
+        xs = x if k % 2 == 0 else x[::-1]
+        zs = 0.5 * np.sin(xs / 6.0 + k * 0.1)
+        words = [f"X{a:.4f} Y{0.2 * k:.4f} Z{b:.4f}" for a, b in zip(xs, zs)]
+        if k == 0:
+            lines += [f"G1 {words[0]} F5000", *words[1:]]
+        else:
+            lines += words
+            corners.append(np.round([xs[0], 0.2 * k, zs[0]], 4))
+        corners.append(np.round([xs[-1], 0.2 * k, zs[-1]], 4))
+    src = "\n".join(lines + ["M2", ""])
+    out, rep = convert_text(src, 0.01, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    assert rep.groups == 1 and rep.blocks_after < rep.blocks_before / 5
+    assert _both_ways(before, after) <= 0.01 * 1.001
+    nb = next(e for e in after if isinstance(e, Nurbs))
+    slack = rounding_bound_mm(coordinate_digits(0.01, 1.0), 1.0) + 1e-9  # a control point as written
+    for vertex in corners[:-1]:
+        assert np.min(np.linalg.norm(nb.points - vertex, axis=1)) <= slack
 
 
 def test_an_arc_inside_a_smooth_path_joins_the_group():
