@@ -177,11 +177,12 @@ def phase_split(path: Path, machine: Path | None, trace_dir: Path) -> tuple[dict
     import machine.controller as mc
     from ipo.config import default_config, load_config
     from ipo.feed import emission, planner
+    from ipr.interpretation import Interpretation
     from machine import drive
     from machine.trace import NpzTraceWriter
 
     clock = PhaseClock()
-    patches = [(mc, "parse_file", clock.function("parse", mc.parse_file)),
+    patches = [(Interpretation, "__iter__", clock.generator("parse", Interpretation.__iter__)),
                (mc.Controller, "check", clock.function("check", mc.Controller.check)),
                (planner.FeedPlanner, "run", clock.generator("plan", planner.FeedPlanner.run)),
                (emission.PeriodOutput, "emit", clock.generator("interpolate", emission.PeriodOutput.emit)),
@@ -270,7 +271,8 @@ def main() -> None:
     s = json.loads(r["stdout"].strip().splitlines()[-1])
     print(f"   {s['steps']:,} periods: {s['steps_per_s'] / 1e6:.2f} M/s as reported (stepping wall time); "
           f"{s['steps'] / r['wall_s'] / 1e6:.2f} M/s of the whole process's wall time ({r['wall_s']:.2f} s, "
-          f"{r['cpu_s']:.2f} s CPU) -> bar >= 5 M/s {'met' if s['steps_per_s'] >= 5e6 else 'NOT met'} (as reported)")
+          f"{r['cpu_s']:.2f} s CPU)\n   bar >= 5 M/s: as reported {'met' if s['steps_per_s'] >= 5e6 else 'NOT met'}; "
+          f"by the whole process's wall time {'met' if s['steps'] / r['wall_s'] >= 5e6 else 'NOT met'}")
 
     print("\nbars")
     for name, bar in (("g1_stellabee1", 1000), ("g1_lhchips4", 1000), ("g6_farfalla", 200)):

@@ -123,15 +123,6 @@ def _sagitta(p, i):
 
 
 @njit(cache=True)
-def chord_errors_mm(p_mm):
-    """Sagitta of each chord p[k]→p[k+1] on the circle through p[k], p[k+1], p[k+2]; (N-2,)."""
-    out = np.zeros(max(0, p_mm.shape[0] - 2))
-    for i in range(out.shape[0]):
-        out[i] = _sagitta(p_mm, i)
-    return out
-
-
-@njit(cache=True)
 def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
     """One pass over the positions ext (BLU; the first `old` rows measured before).
 

@@ -163,24 +163,61 @@ def _certified(r, n, tol, a_top, b_top, i, j, near, pair):
 
 
 @njit(cache=True)
-def _tightest_at_top(r, m, b_top):
-    """The row (of the first m + 1: the axis rows and x_k <= a_top) whose bound on x_k is the
-    lowest at x_k+1 = b_top, or -1: a first guess at the optimum's pair with row m + 2."""
-    best, arg = _BIG, -1
-    for q in range(m + 1):
-        if r[q, 0] > 0.0:
-            bound = (r[q, 2] - r[q, 1] * b_top) / r[q, 0]
-            if bound < best:
-                best, arg = bound, q
-    return arg
+def _b_range(r, n, a):
+    """The rows that bound x_k+1 tightest from above and from below at x_k = a, and the gap
+    between those bounds (negative: no x_k+1 fits)."""
+    up, hi, lo_row, lo = -1, _BIG, -1, -_BIG
+    for q in range(n):
+        if r[q, 1] > 0.0:
+            bound = (r[q, 2] - r[q, 0] * a) / r[q, 1]
+            if bound < hi:
+                up, hi = q, bound
+        elif r[q, 1] < 0.0:
+            bound = (r[q, 2] - r[q, 0] * a) / r[q, 1]
+            if bound > lo:
+                lo_row, lo = q, bound
+    return up, lo_row, hi - lo
+
+
+@njit(cache=True)
+def _vertex_guess(r, n, m):
+    """A first guess at the optimum's pair of rows (i < j; -1, -1: none), for the certificate
+    (_certified) to accept or refuse.
+
+    For each x_k = a the rows leave x_k+1 an interval between the lowest upper bound and the
+    highest lower bound; their gap is concave in a, and the optimum is the largest a where
+    it is >= 0 (and the rows on x_k alone allow it). Start at x_k = a_top (row m); while the
+    gap there is negative, move a to where the two binding rows' bounds meet (one Newton
+    step on a piecewise linear function: it never overshoots the root of a concave one)."""
+    a = r[m, 2]
+    for q in range(n):  # rows on x_k alone (x_k <= a_top among them)
+        if r[q, 1] == 0.0 and r[q, 0] > 0.0:
+            a = min(a, r[q, 2] / r[q, 0])
+    up, lo, gap = _b_range(r, n, a)
+    if up < 0:
+        return -1, -1
+    if gap >= 0.0:  # the top itself fits
+        return (min(up, m), max(up, m)) if a == r[m, 2] else (-1, -1)
+    for _ in range(n):
+        slope = -r[up, 0] / r[up, 1] + r[lo, 0] / r[lo, 1]  # d gap / d a
+        if not slope < 0.0:
+            return -1, -1
+        a_next = a - gap / slope
+        if not a_next < a:
+            break
+        a = a_next
+        up_next, lo_next, gap = _b_range(r, n, a)
+        if (up_next == up and lo_next == lo) or gap >= 0.0:
+            break
+        up, lo = up_next, lo_next
+    return min(up, lo), max(up, lo)
 
 
 @njit(cache=True)
 def max_start_from(rows, m, a_top, b_top, r, pairs, near):
     """max_start, bit for bit, trying first the pairs of rows in `pairs` (4,): the optimum of
     the last interval and the one before it that differed (neighbouring intervals are
-    alike; updated to this interval's), then the row tightest at x_k+1 = b_top with that
-    bound. r (m + 4, 3) and near (m + 4,) are scratch.
+    alike; updated to this interval's), then a guess (_vertex_guess). r (m + 4, 3) and near (m + 4,) are scratch.
 
     1. A hinted pair's vertex v0 = (a0, b0), if it is feasible.
     2. The certificate: the objective (1, 0) = l1 n_i + l2 n_j with both l > 0. Then every
@@ -198,8 +235,8 @@ def max_start_from(rows, m, a_top, b_top, r, pairs, near):
     for h in range(3):
         if h < 2:
             i, j = pairs[2 * h], pairs[2 * h + 1]
-        else:  # the row that bounds x_k tightest at x_k+1 = b_top, with that bound's row
-            i, j = _tightest_at_top(r, m, b_top), m + 2
+        else:
+            i, j = _vertex_guess(r, n, m)
         if 0 <= i < j < n:
             x = _certified(r, n, tol, a_top, b_top, i, j, near, pairs)
             if x > -2.0:

@@ -8,7 +8,7 @@ spacing can resolve, and their arc length comes from Simpson's rule on |C'(u)|.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -67,10 +67,11 @@ class NurbsTable:
     kv: np.ndarray
     end_gap_mm: float = 0.0  # the end samples' gap (nurbs_table), for tables of trimmed parts
     bezier: bool = False  # a corner blend's table (its points by ipo.feed.blends.compiled)
+    _kappa: np.ndarray | None = field(default=None, init=False, repr=False)  # |kv|, on first use
 
     def s_of_u(self, u: float) -> float:
         """Arc length at u: cubic Hermite on s(u) with ds/du known at the samples."""
-        k = int(np.clip(np.searchsorted(self.u, u, side="right") - 1, 0, len(self.u) - 2))
+        k = min(max(int(np.searchsorted(self.u, u, side="right")) - 1, 0), len(self.u) - 2)
         h = self.u[k + 1] - self.u[k]
         q = (u - self.u[k]) / h
         h00, h10, h01, h11 = 2*q**3 - 3*q**2 + 1, q**3 - 2*q**2 + q, -2*q**3 + 3*q**2, q**3 - q**2
@@ -102,7 +103,9 @@ class NurbsTable:
         return u
 
     def curvature_at(self, s: np.ndarray) -> np.ndarray:
-        return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
+        if self._kappa is None:  # the NURBS driver asks every chunk of periods
+            self._kappa = np.linalg.norm(self.kv, axis=1)
+        return np.interp(s, self.s, self._kappa)
 
     @property
     def length(self) -> float:

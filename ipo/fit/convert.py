@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ipo.errors import FIT_SETTINGS, IpoError
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain
@@ -244,13 +245,13 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece);
     degree: None for the dialect's own (2, conic spans, for G06.2; 3 for G5.2))."""
     if dialect not in DIALECTS:
-        raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
+        raise IpoError(FIT_SETTINGS, f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
-        raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
+        raise IpoError(FIT_SETTINGS, f"tolerance must be > 0 mm, got {tol_mm}")
     if degree is None:
         degree = 2 if dialect == "g06.2" else 3
     if not 1 <= degree <= 5:
-        raise ValueError(f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
+        raise IpoError(FIT_SETTINGS, f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
     lines = text.split("\n")  # as the IPR numbers lines: "\n" only
     entities, frames, counts = _interpret(lines, file, setup)
     pure = {n for n in frames if frames[n].per_minute and _pure(lines[n - 1])}
@@ -340,7 +341,7 @@ def _plan_all(planner, chains: list[Chain], options: list[FitOptions], jobs: int
     (each chain's fit is independent of the others; results come back in order)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
-        raise ValueError(f"jobs must be >= 1, got {jobs}")
+        raise IpoError(FIT_SETTINGS, f"jobs must be >= 1, got {jobs}")
     if jobs == 1 or len(chains) < 2 * jobs:
         return [planner(c, o) for c, o in zip(chains, options)]
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:

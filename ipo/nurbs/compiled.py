@@ -1,8 +1,8 @@
 """Compiled scalar NURBS evaluation for the per-period loops (one u at a time).
 
 Two forms of the same curve (000 eq. 1-4):
-- Cox-de Boor on the knot vector (find_span, basis, point, derivs2): the textbook
-  path (NURBS Book A2.1-A2.3, A4.2), used to build and to check the fast form.
+- Cox-de Boor on the knot vector (find_span, basis, point): the textbook
+  path (NURBS Book A2.1, A2.2, A4.1), used to build and to check the fast form.
 - The span polynomials: on each non-empty knot span the homogeneous curve
   A(u) = sum N_i h_i B_i, w(u) = sum N_i h_i is a polynomial of degree p, stored in
   power form in the local variable t = (u - a) / (b - a) in [0, 1]. A point then
@@ -71,70 +71,6 @@ def point(degree, knots, pw, u, span, out):
     out[0] = a0 / w
     out[1] = a1 / w
     out[2] = a2 / w
-
-
-@njit(cache=True)
-def basis_derivs2(knots, degree, span, u, ders):
-    """N and its first two derivatives into ders (3, p+1) (NURBS Book A2.3 with n = 2)."""
-    p = degree
-    ndu = np.empty((p + 1, p + 1))
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    a = np.empty((2, p + 1))
-    ndu[0, 0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = u - knots[span + 1 - j]
-        right[j] = knots[span + j] - u
-        saved = 0.0
-        for r in range(j):
-            ndu[j, r] = right[r + 1] + left[j - r]
-            temp = ndu[r, j - 1] / ndu[j, r]
-            ndu[r, j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j, j] = saved
-    for k in range(3):
-        for r in range(p + 1):
-            ders[k, r] = 0.0
-    for r in range(p + 1):
-        ders[0, r] = ndu[r, p]
-    for r in range(p + 1):
-        s1, s2 = 0, 1
-        a[0, 0] = 1.0
-        for k in range(1, min(2, p) + 1):
-            d = 0.0
-            rk, pk = r - k, p - k
-            if r >= k:
-                a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
-                d = a[s2, 0] * ndu[rk, pk]
-            j1 = 1 if rk >= -1 else -rk
-            j2 = k - 1 if r - 1 <= pk else p - r
-            for j in range(j1, j2 + 1):
-                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
-                d += a[s2, j] * ndu[rk + j, pk]
-            if r <= pk:
-                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
-                d += a[s2, k] * ndu[r, pk]
-            ders[k, r] = d
-            s1, s2 = s2, s1
-    factor = float(p)
-    for k in range(1, 3):
-        for r in range(p + 1):
-            ders[k, r] *= factor
-        factor *= p - k
-
-
-@njit(cache=True)
-def derivs2(degree, knots, pw, u, span, out):
-    """C(u), C'(u), C''(u) into out (3, 3) (NURBS Book A4.2, eq. 4.8)."""
-    ders = np.empty((3, degree + 1))
-    basis_derivs2(knots, degree, span, u, ders)
-    aw = np.zeros((3, 4))
-    for k in range(3):
-        for r in range(degree + 1):
-            i = span - degree + r
-            for c in range(4):
-                aw[k, c] += ders[k, r] * pw[i, c]
-    _rational2(aw, out)
 
 
 @njit(cache=True)

@@ -28,6 +28,15 @@ def load_machine(path: str | None):
         raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
 
 
+def refusal(err, where: str) -> click.ClickException:
+    """An ipo.errors.IpoError refusing the user's input, as the commands report it (exit 1):
+    `WHERE: error[CODE]: message`, or the message's own `file:line:` where it starts with WHERE."""
+    location, sep, text = err.message.partition(": ")
+    if not (sep and location.startswith(where)):
+        location, text = where, err.message
+    return click.ClickException(f"{location}: error[{err.code}]: {text}")
+
+
 def linuxcnc_ini_option(fn):
     return click.option("--linuxcnc-ini", "linuxcnc_ini", type=INPUT_FILE,
                         help="The machine's LinuxCNC INI file for the LinuxCNC twin: its [AXIS_*] limits, "

@@ -24,8 +24,7 @@ class Block:
     """One planner block (plan_block_t) and what the twin needs to place it."""
 
     __slots__ = ("steps", "step_event_count", "mm", "accel", "rapid_rate", "programmed_rate", "rapid",
-                 "entry_sqr", "max_entry_sqr", "max_junction_sqr", "start_steps", "target_steps", "line",
-                 "junction_limited")
+                 "entry_sqr", "max_entry_sqr", "max_junction_sqr", "start_steps", "target_steps", "line")
 
     def __init__(self):
         self.entry_sqr = 0.0
@@ -136,7 +135,6 @@ class Planner:
         # 4. entry limit from the junction and both nominal speeds; then re-plan
         nominal = self.nominal_speed(b)
         b.max_entry_sqr = min(min(nominal, self.prev_nominal) ** 2, b.max_junction_sqr)
-        b.junction_limited = b.max_junction_sqr < min(nominal, self.prev_nominal) ** 2
         self.prev_nominal = nominal
         self.prev_unit = unit
         self.position = target

@@ -30,7 +30,7 @@ class Tc:
     __slots__ = ("kind", "canon", "line_no", "shape", "target", "nominal_length", "reqvel", "maxvel",
                  "vmax_reason", "maxaccel", "acc_ratio_tan", "finalvel", "kink_vel", "kink_accel_reduce",
                  "kink_accel_reduce_prev", "term_cond", "tolerance", "blend_prev", "finalized",
-                 "optimization_state", "atspeed", "active_depth", "progress", "cycle_time")
+                 "optimization_state", "atspeed", "progress", "cycle_time")
 
     def __init__(self, kind: int, canon: int, line_no: int, shape, target: float, *, reqvel: float,
                  maxvel: float, maxaccel: float, term_cond: int, tolerance: float, cycle_time: float):
@@ -46,7 +46,6 @@ class Tc:
         self.finalized = False
         self.optimization_state = 0
         self.atspeed = False
-        self.active_depth = 1
         self.progress = 0.0  # the planner never sees a segment move: it plans ahead of the run
         self.cycle_time = cycle_time
 

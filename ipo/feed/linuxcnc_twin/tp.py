@@ -263,7 +263,6 @@ class TrajectoryPlanner:
                 tc.finalvel = 0.0
             else:
                 self._optimal_velocity(tc, prev1)
-            tc.active_depth = x - 2 - hit_peaks
             if tc.optimization_state:
                 hit_peaks += 1
             if hit_peaks > OPTIMIZATION_CUTOFF:

@@ -48,3 +48,24 @@ def test_hinted_programme_is_the_enumeration_to_the_bit(seed):
         assert got == lp.max_start(rows, m, cap, b_top), (seed, t, kv, ds, cap, b_top, before)
         hinted += bool(np.array_equal(before[:2], pairs[:2]))
     assert hinted > 0  # the shortcut itself was taken
+
+
+def test_vertex_guess_is_the_optimum_of_most_unhinted_intervals():
+    """With no hint at all, the guess (_vertex_guess) is the optimal pair that the certificate
+    accepts in most intervals, and the result is still the enumeration's to the bit."""
+    rng = np.random.default_rng(7)
+    rows, unit, near = np.empty((12, 3)), np.empty((16, 3)), np.empty(16, np.bool_)
+    accepted = tried = 0
+    for _ in range(3000):
+        t, kv, ds = _interval(rng)
+        m = lp.interval_rows(t, kv, 0, 2 * ds, A_MAX, 1.0, rows)
+        cap, b_top = 10 ** rng.uniform(-2, 5), 10 ** rng.uniform(-3, 5)
+        n = lp._unit_rows(rows, m, cap, b_top, unit)
+        i, j = lp._vertex_guess(unit, n, m)
+        tried += 1
+        pair = np.zeros(2, np.int64)
+        accepted += 0 <= i < j < n and lp._certified(unit, n, 1e-9 * max(1.0, b_top), cap, b_top, i, j, near,
+                                                     pair) > -2.0
+        got = lp.max_start_from(rows, m, cap, b_top, unit, np.full(4, -1, np.int64), near)
+        assert got == lp.max_start(rows, m, cap, b_top)
+    assert accepted > 0.9 * tried, (accepted, tried)
