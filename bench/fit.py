@@ -1,6 +1,6 @@
 """Benchmark of issues 7 and 23: G01 (and G2/G3) chains -> G06.2 with 001's rational B-spline fit.
 
-    python bench/fit.py [conversion] [rational] [compare] [--quick] [--no-cycle]   (all three parts by default)
+    python bench/fit.py [conversion] [rational] [compare] [--quick] [--no-cycle] [--jobs N]   (all three parts by default)
 
 conversion: at T = 5 um and 10 um, for g1_lhchips4.ngc, g1_stellabee1.ngc (its first
 STELLA_LINES lines: a deterministic part, the whole file takes too long to run here),
@@ -86,7 +86,7 @@ def _cycle(text: str, machine: Path | None, tmp: Path, name: str) -> tuple[float
     return run["time_s"], _feed_figures(run)["feed_fluctuation_pct"]
 
 
-def conversion_table(quick: bool, cycle: bool = True) -> None:
+def conversion_table(quick: bool, cycle: bool = True, jobs: int | None = None) -> None:
     import tempfile
 
     print("\n== G01/G2/G3 chains -> G06.2 (degree 3), per program and tolerance")
@@ -97,7 +97,7 @@ def conversion_table(quick: bool, cycle: bool = True) -> None:
         for name, text, machine in programs(quick):
             before = _cycle(text, machine, Path(tmp), "before.nc") if cycle else None
             for tol in TOLS_MM:
-                out, rep = convert_text(text, tol, file=name)
+                out, rep = convert_text(text, tol, file=name, jobs=jobs)
                 parse_text(out)  # the output must be a valid program
                 after = _cycle(out, machine, Path(tmp), "after.nc") if cycle else None
                 times = f"{before[0]:8.1f}->{after[0]:<8.1f}" if cycle else "-"
@@ -187,12 +187,20 @@ def compare_table() -> None:
     print(format_table(res))
 
 
+def _jobs() -> int | None:
+    """--jobs N: worker processes for the fits (default one per core)."""
+    if "--jobs" not in sys.argv:
+        return None
+    return int(sys.argv[sys.argv.index("--jobs") + 1])
+
+
 def main() -> None:
     quick = "--quick" in sys.argv
-    parts = [a for a in sys.argv[1:] if not a.startswith("--")] or ["conversion", "rational", "compare"]
+    args = [a for i, a in enumerate(sys.argv[1:], 1) if sys.argv[i - 1] != "--jobs"]
+    parts = [a for a in args if not a.startswith("--")] or ["conversion", "rational", "compare"]
     t0 = time.perf_counter()
     if "conversion" in parts:
-        conversion_table(quick, cycle="--no-cycle" not in sys.argv)
+        conversion_table(quick, cycle="--no-cycle" not in sys.argv, jobs=_jobs())
     if "rational" in parts:
         rational_table(quick)
     if "compare" in parts:

@@ -33,15 +33,22 @@ from numba import njit
 
 STATE = 8
 X, LOG_E, LOG_W, LOG_H, W_LO, W_HI, H_LO, H_HI = range(STATE)
-LOG_WEIGHT_SPREAD = np.log(1e9)  # largest / smallest weight of a group
+LOG_WEIGHT_SPREAD = np.log(1e6)  # largest / smallest weight of a group
 LOG_INTERVAL_SPREAD = np.log(1e4)  # longest / shortest knot interval of a run
 LAMBDA_MIN = 1e-3  # a junction closer to a control point (fraction of the leg) takes a double knot
+# E_k+1 / E_k of one span, either way: the span's speed in its parameter changes by this factor
+# (times its arms' ratio) from one end to the other; the controller's arc-length table
+# (ipo.feed.sampling) refuses a curve that moves too unevenly in u. A run's first span can
+# always keep it: |2 log rho| <= 2 log 20 (ipo.fit.conic's RHO_MAX) is below it
+LOG_SPAN_E_STEP = np.log(1e3)
 
 
 @njit(cache=True)
 def _start_run(prev, rho, out):
-    """A run's first span from a junction of state prev: x_1 brings E back to the group's first."""
-    x = min(rho * rho, rho * np.exp(-0.5 * prev[LOG_E]))
+    """A run's first span from a junction of state prev: x_1 brings E back towards the group's first
+    (by at most LOG_SPAN_E_STEP)."""
+    step = min(max(-prev[LOG_E], -LOG_SPAN_E_STEP), LOG_SPAN_E_STEP)
+    x = min(rho * rho, rho * np.exp(0.5 * step))
     out[X] = x
     out[LOG_W] = prev[LOG_E] + np.log(x)
     out[LOG_E] = prev[LOG_E] + 2.0 * np.log(x) - 2.0 * np.log(rho)
@@ -79,7 +86,8 @@ def follow(run_start, c_prev, j, rho_prev, prev, c, rho, out):
                 out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
                 out[H_LO] = min(prev[H_LO], out[LOG_H])
                 out[H_HI] = max(prev[H_HI], out[LOG_H])
-                if out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD:
+                if (out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD
+                        and abs(out[LOG_E] - prev[LOG_E]) <= LOG_SPAN_E_STEP):
                     return 1
     if not _start_run(prev, rho, out):
         return 0
