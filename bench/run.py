@@ -1,147 +1,292 @@
-"""Benchmark of `vcnc run`: whole processes, the memory bound, and where the time goes.
+"""Benchmark of `vcnc run`: whole processes, fresh and warm, and where the time goes.
 
-For each program: blocks, periods, simulated time, wall time of the whole `vcnc run`
-process (interpreter start, imports, numba cache loads, parse, check, plan,
-interpolate, drive), realtime_factor = simulated time / that wall time, and the
-process's peak RSS (os.wait4). Machine: 100 mm/s and 1000 mm/s² per axis, 1 ms
-period (the built-in default machine).
+    python bench/run.py [--quick] [--no-fresh] [--no-phases]
 
-The machine is shared, so the CPU time of the process (user + system, from the same
-wait4) is printed next to the wall time: it is the figure that noise does not move.
+Programs: g1_stellabee1, g1_lhchips4, g6_farfalla (../shared/corpus/linuxcnc, the default
+machine), programs/finish_nurbs.nc (programs/finish_machine.toml: the roughness limiter on),
+a generated 2,000,000-line G01 raster (GENERATED_BLOCKS; the default machine) and
+programs/demo.nc (programs/machine.toml).
 
-Memory check: lhchips4 runs at 1 ms and again at a 0.1 ms period (ten times the
-periods, same blocks); the peak RSS must not grow with the periods.
+1. Whole processes: `python -m machine.cli run FILE --json` in a child reaped with os.wait4:
+   wall time, CPU time (user + system: the figure a shared machine's load does not move),
+   realtime factor = simulated time / each, and peak RSS. "warm": numba's cache holds every
+   kernel (a first run filled it); "fresh": NUMBA_CACHE_DIR is an empty directory, so the
+   process compiles every kernel it calls. Demo's first run as the README's first command
+   makes it: a fresh cache, `vcnc warmup`, then `vcnc run` (bar: <= 10 s of wall time).
+2. Where the time goes: each program run in this process (warm kernels) with a trace sink
+   writing the rows as --trace does, its CPU time charged to the phase running at each
+   moment (exclusive, like a profiler's self time, but by phase): parse (ipr), check (the
+   rest of the whole-program check: travel, NURBS the planner cannot walk), plan (pieces,
+   samples, caps, look-ahead: the planner's own time), interpolate (the period grid, the
+   points of every period, NURBS stepping, BLU quantising: the output side), drive
+   (integration, limits, measurements), trace (the sink), other (the run loop).
+3. `vcnc interp` on a cubic NURBS with 30 control points (bench/interp.py's throughput
+   curve), recursive n1 = 2, D = its length / 2,000,000: the periods per second it reports
+   (its stepping's wall time) and periods per wall second of the whole process.
 
-Breakdown: stellabee1 in-process, phase by phase (parse + travel check, then the
-run), with cProfile's own time attributed to the module that spent it.
+Bars (issue 22): >= 1000x real time by CPU time on g1_stellabee1 and g1_lhchips4, >= 200x on
+g6_farfalla; the 2 M-line program within 600 MB; demo's first run <= 10 s; vcnc interp
+>= 5 M periods per second of wall time.
 
-Usage: python bench/run.py [--quick]   (--quick: skip stellabee1)
+--quick: leaves out stellabee1 and the 2 M-line program, and the fresh-cache rows but demo's.
 """
 from __future__ import annotations
 
-import cProfile
+import argparse
 import json
 import os
-import pstats
 import sys
+import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 CORPUS = ROOT.parent / "shared" / "corpus" / "linuxcnc"
-PROGRAMS = [CORPUS / "g1_stellabee1.ngc", CORPUS / "g1_lhchips4.ngc", CORPUS / "g6_farfalla.ngc",
-            ROOT / "programs" / "demo.nc"]
-VCNC = [sys.executable, "-c", "from machine.cli import main; main()"]
+GENERATED_BLOCKS = 2_000_000
+PHASES = ("parse", "check", "plan", "interpolate", "drive", "trace", "other")
 
 
-def run_process_rss(path: Path, *extra: str) -> dict:
-    """One whole `vcnc run --json` process, reaped with wait4 to read its own peak RSS."""
+def generated_raster(path: Path, n_blocks: int = GENERATED_BLOCKS) -> Path:
+    """n G01 blocks of a finishing raster like CAM output: passes along X over a 100 x 100 mm
+    patch, 0.5 mm apart in Y, 0.2 mm steps, Z following a gentle bump, 3 decimals, F1500."""
+    per_pass = 500
+    k = np.arange(n_blocks)
+    j, i = divmod(k, per_pass)
+    x = np.where(j % 2 == 0, i, per_pass - 1 - i) * 0.2
+    y = (j % 200) * 0.5
+    z = 2.0 * np.exp(-((x - 50.0) ** 2 + (y - 50.0) ** 2) / 800.0)
+    with path.open("w") as f:
+        f.write("G21 G17 G90 G94 G64 P0.01\nG0 X0 Y0 Z5\nG1 Z0 F1500\n")
+        f.writelines(f"X{a:.3f} Y{b:.3f} Z{c:.3f}\n" for a, b, c in zip(x, y, z))
+        f.write("G0 Z5\nM2\n")
+    return path
+
+
+def nurbs_program(path: Path) -> tuple[Path, float]:
+    """bench/interp.py's throughput curve as one G06.2 group; returns it and its length (mm)."""
+    sys.path.insert(0, str(ROOT / "bench"))
+    from interp import throughput_curve  # noqa: E402 (bench/interp.py)
+
+    from ipo.nurbs import kernel as nk
+    from ipr import parse_file
+
+    e = throughput_curve()
+    pts, w, knots, p = e.points, e.weights, e.knots, e.degree
+    lines = ["G21 G90 G17", f"G0 X{pts[0, 0]:.6f} Y{pts[0, 1]:.6f} Z{pts[0, 2]:.6f}"]
+    for i in range(len(pts)):
+        head = f"G06.2 P{p + 1} " if i == 0 else ""
+        lines.append(f"{head}K{knots[i]:.10f} X{pts[i, 0]:.6f} Y{pts[i, 1]:.6f} Z{pts[i, 2]:.6f} R{w[i]:.6f}"
+                     + (" F1000" if i == 0 else ""))
+    lines += [f"K{k:.10f}" for k in knots[len(pts):]] + ["M2"]
+    path.write_text("\n".join(lines) + "\n")
+    written = next(x for x in parse_file(path).entities if type(x).__name__ == "Nurbs")
+    return path, float(nk.arc_length(written.degree, written.knots, written.weights, written.points))
+
+
+def process(args: list[str], env: dict | None = None) -> dict:
+    """One `python -m machine.cli ARGS` process: its stdout, wall and CPU seconds, peak RSS."""
     t0 = time.perf_counter()
-    pid = os.fork()
-    if pid == 0:
-        os.chdir(ROOT)
-        fd = os.open(os.devnull, os.O_WRONLY)
-        out = os.open(f"/tmp/vcnc-bench-{os.getpid()}.json", os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
-        os.dup2(out, 1)
-        os.dup2(fd, 2)
-        os.execv(sys.executable, VCNC + ["run", str(path), "--json", *extra])
-    _, status, usage = os.wait4(pid, 0)
-    wall = time.perf_counter() - t0
-    result = Path(f"/tmp/vcnc-bench-{pid}.json")
-    text = result.read_text()
-    result.unlink()
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise SystemExit(f"vcnc run {path.name} failed with status {os.waitstatus_to_exitcode(status)}")
-    return {"summary": json.loads(text.strip().splitlines()[-1]), "wall_s": wall, "rss_mb": usage.ru_maxrss / 1024,
-            "cpu_s": usage.ru_utime + usage.ru_stime}
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        pid = os.fork()
+        if pid == 0:
+            os.chdir(ROOT)
+            os.dup2(out.fileno(), 1)
+            os.dup2(err.fileno(), 2)
+            os.execve(sys.executable, [sys.executable, "-m", "machine.cli", *args], env or dict(os.environ))
+        _, status, usage = os.wait4(pid, 0)
+        wall = time.perf_counter() - t0
+        out.seek(0)
+        err.seek(0)
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise SystemExit(f"vcnc {' '.join(args)} failed: {err.read().decode()[-800:]}")
+        return {"stdout": out.read().decode(), "wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime,
+                "rss_mb": usage.ru_maxrss / 1024}
 
 
-def breakdown(path: Path) -> None:
-    """Phase CPU times in-process, then cProfile's self time per module."""
-    from ipo.config import default_config
-    from machine.controller import Controller
+def fresh_env(cache_dir: str) -> dict:
+    return dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
 
-    clock = time.process_time
-    controller = Controller(default_config())
-    t0 = clock()
-    program = controller.check(path)
-    t_check = clock() - t0
-    drive_s = [0.0]
-    make_drive = controller.make_drive
 
-    def timed_drive(program):
-        drive = make_drive(program)
-        receive = drive.receive
+def run_row(name: str, path: Path, machine: Path | None, env: dict | None) -> dict:
+    r = process(["run", str(path), "--json"] + (["--machine", str(machine)] if machine else []), env)
+    r["summary"] = json.loads(r["stdout"].strip().splitlines()[-1])
+    sim = r["summary"]["cycle_time_s"]
+    print(f"{name:28s} {r['summary']['periods']:10d} {sim:9.1f} {r['wall_s']:8.2f} {sim / r['wall_s']:9.1f} "
+          f"{r['cpu_s']:8.2f} {sim / r['cpu_s']:9.1f} {r['rss_mb']:8.1f}", flush=True)
+    return r
 
-        def timed(batch):
-            t = clock()
-            receive(batch)
-            drive_s[0] += clock() - t
-        drive.receive = timed
-        return drive
 
-    controller.make_drive = timed_drive
-    t0 = clock()
-    result = controller.run(program)
-    t_run = clock() - t0
-    print(f"\nbreakdown, {path.name} in one process (CPU seconds, numba caches warm):")
-    print(f"  parse + whole-program check  {t_check:8.2f} s")
-    print(f"  plan + interpolate           {t_run - drive_s[0]:8.2f} s")
-    print(f"  drive (integrate, measure)   {drive_s[0]:8.2f} s")
-    print(f"  simulated time {result.cycle_time_s:.1f} s; in-process factor "
-          f"{result.cycle_time_s / (t_check + t_run):.0f}x")
+# ---- phases -------------------------------------------------------------------------
+class PhaseClock:
+    """CPU time charged to the phase on top of a stack (exclusive time per phase)."""
 
-    controller.make_drive = make_drive
-    prof = cProfile.Profile()
-    prof.enable()
-    controller.run(controller.check(path))
-    prof.disable()
-    per_module: dict[str, float] = defaultdict(float)
-    for (file, _, _), (_, _, tottime, _, _) in pstats.Stats(prof).stats.items():
-        p = Path(file)
-        key = "/".join(p.parts[-2:]) if str(ROOT) in file else ("numpy" if "numpy" in file else
-                                                                  "lark" if "lark" in file else "other")
-        per_module[key] += tottime
-    total = sum(per_module.values())
-    print("  cProfile self time by module (profiled run; shares matter, not absolute times):")
-    for key, s in sorted(per_module.items(), key=lambda kv: -kv[1])[:12]:
-        print(f"    {key:32s} {s:7.2f} s  {100 * s / total:5.1f} %")
+    def __init__(self):
+        self.seconds: dict[str, float] = defaultdict(float)
+        self._stack = ["other"]
+        self._t = time.process_time()
+
+    def push(self, phase: str) -> None:
+        t = time.process_time()
+        self.seconds[self._stack[-1]] += t - self._t
+        self._t = t
+        self._stack.append(phase)
+
+    def pop(self) -> None:
+        t = time.process_time()
+        self.seconds[self._stack.pop()] += t - self._t
+        self._t = t
+
+    def function(self, phase: str, fn):
+        def timed(*a, **k):
+            self.push(phase)
+            try:
+                return fn(*a, **k)
+            finally:
+                self.pop()
+        return timed
+
+    def generator(self, phase: str, fn):
+        """A generator function whose every resumption is charged to phase (not the time
+        its consumer spends between items); its return value passes through."""
+        clock = self
+
+        def timed(*a, **k):
+            gen = fn(*a, **k)
+            sent = None
+            try:
+                while True:
+                    clock.push(phase)
+                    try:
+                        item = gen.send(sent)
+                    except StopIteration as stop:
+                        return stop.value
+                    finally:
+                        clock.pop()
+                    sent = yield item
+            finally:
+                gen.close()
+        return timed
+
+
+def phase_split(path: Path, machine: Path | None, trace_dir: Path) -> tuple[dict, float]:
+    """CPU seconds per phase of one in-process run, and its simulated time."""
+    import machine.controller as mc
+    from ipo.config import default_config, load_config
+    from ipo.feed import emission, planner
+    from ipr.interpretation import Interpretation
+    from machine import drive
+    from machine.trace import NpzTraceWriter
+
+    clock = PhaseClock()
+    patches = [(Interpretation, "__iter__", clock.generator("parse", Interpretation.__iter__)),
+               (mc.Controller, "check", clock.function("check", mc.Controller.check)),
+               (planner.FeedPlanner, "run", clock.generator("plan", planner.FeedPlanner.run)),
+               (emission.PeriodOutput, "emit", clock.generator("interpolate", emission.PeriodOutput.emit)),
+               (drive.Drive, "receive", clock.function("drive", drive.Drive.receive)),
+               (NpzTraceWriter, "write", clock.function("trace", NpzTraceWriter.write))]
+    saved = [(owner, name, getattr(owner, name)) for owner, name, _ in patches]
+    try:
+        for owner, name, fn in patches:
+            setattr(owner, name, fn)
+        config = load_config(machine) if machine else default_config()
+        controller = mc.Controller(config)
+        clock.seconds.clear()
+        clock.push("other")
+        program = controller.check(path)
+        writer = NpzTraceWriter(trace_dir / "trace.npz", controller.limits.meta(), servo=False)
+        controller.sinks = [writer]
+        result = controller.run(program)
+        clock.pop()
+        clock.push("trace")
+        writer.close()
+        clock.pop()
+    finally:
+        for owner, name, fn in saved:
+            setattr(owner, name, fn)
+    return dict(clock.seconds), result.cycle_time_s
 
 
 def main() -> None:
-    quick = "--quick" in sys.argv
-    programs = [p for p in PROGRAMS if p.exists() and not (quick and "stellabee" in p.name)]
-    missing = [p for p in PROGRAMS if not p.exists()]
-    for p in missing:
-        print(f"skipped (not found): {p}")
-    run_process_rss(ROOT / "programs" / "demo.nc")  # warm numba's caches so no row pays for compiling
-    print(f"{'program':22s} {'blocks':>7s} {'periods':>9s} {'sim s':>8s} {'wall s':>7s} {'rt factor':>9s} "
-          f"{'cpu s':>7s} {'sim/cpu':>8s} {'peak MB':>8s}")
-    rows = {}
-    for p in programs:
-        r = run_process_rss(p)
-        s = r["summary"]
-        rows[p.name] = r
-        print(f"{p.name:22s} {s['blocks']:7d} {s['periods']:9d} {s['cycle_time_s']:8.1f} {r['wall_s']:7.2f} "
-              f"{s['cycle_time_s'] / r['wall_s']:9.1f} {r['cpu_s']:7.2f} {s['cycle_time_s'] / r['cpu_s']:8.1f} "
-              f"{r['rss_mb']:8.1f}")
-    mem = CORPUS / "g1_lhchips4.ngc"
-    if mem.name in rows:
-        fine = run_process_rss(mem, "--period-ms", "0.1")
-        base = rows[mem.name]
-        print(f"\nmemory vs periods, {mem.name}: {base['summary']['periods']} periods -> {base['rss_mb']:.1f} MB; "
-              f"at a 0.1 ms period {fine['summary']['periods']} periods -> {fine['rss_mb']:.1f} MB")
-    big = programs[0]
-    if "stellabee" in big.name:
-        base = rows[big.name]
-        factor = base["summary"]["cycle_time_s"] / base["wall_s"]
-        cpu_factor = base["summary"]["cycle_time_s"] / base["cpu_s"]
-        print(f"bar: >= 100x real time end to end on {big.name}: {factor:.1f}x by wall time, "
-              f"{cpu_factor:.1f}x by CPU time -> {'met' if factor >= 100 else 'NOT met'} (wall); "
-              f"cycle {base['summary']['cycle_time_s'] / 60:.1f} min (the issue expects 7-8 min at these limits)")
-        breakdown(big)
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="leave out stellabee1, the 2 M-line program, "
+                                                         "and the fresh rows but demo's")
+    ap.add_argument("--no-fresh", action="store_true", help="leave out every fresh-cache row")
+    ap.add_argument("--no-phases", action="store_true", help="leave out the phase split")
+    args = ap.parse_args()
+    tmp = Path(tempfile.mkdtemp(prefix="vcnc-bench-run-"))
+    programs = [("g1_stellabee1", CORPUS / "g1_stellabee1.ngc", None),
+                ("g1_lhchips4", CORPUS / "g1_lhchips4.ngc", None),
+                ("g6_farfalla", CORPUS / "g6_farfalla.ngc", None),
+                ("finish_nurbs", ROOT / "programs" / "finish_nurbs.nc", ROOT / "programs" / "finish_machine.toml"),
+                (f"generated {GENERATED_BLOCKS // 1_000_000} M-line G01", None, None),
+                ("demo", ROOT / "programs" / "demo.nc", ROOT / "programs" / "machine.toml")]
+    if args.quick:
+        programs = [p for p in programs if p[0] not in ("g1_stellabee1",) and p[1] is not None]
+    rows = []
+    for name, path, machine in programs:
+        if path is None:
+            t0 = time.perf_counter()
+            path = generated_raster(tmp / "generated.ngc")
+            print(f"(generated {GENERATED_BLOCKS:,} G01 blocks in {time.perf_counter() - t0:.1f} s: {path})")
+        if not path.exists():
+            print(f"skipped (not found): {path}")
+            continue
+        rows.append((name, path, machine))
+
+    process(["run", str(ROOT / "programs" / "demo.nc"), "--json"])  # the default cache holds every kernel
+    head = (f"{'program':28s} {'periods':>10s} {'sim s':>9s} {'wall s':>8s} {'x (wall)':>9s} {'cpu s':>8s} "
+            f"{'x (cpu)':>9s} {'peak MB':>8s}")
+    print("\n1. whole `vcnc run --json` processes, warm numba cache\n" + head)
+    warm = {name: run_row(name, path, machine, None) for name, path, machine in rows}
+    if not args.no_fresh:
+        print("\n   the same with a fresh numba cache (every kernel compiled in the process)\n" + head)
+        for name, path, machine in rows:
+            if args.quick and name != "demo":
+                continue
+            with tempfile.TemporaryDirectory() as cache:
+                run_row(name, path, machine, fresh_env(cache))
+        with tempfile.TemporaryDirectory() as cache:
+            w = process(["warmup"], fresh_env(cache))
+            d = process(["run", str(ROOT / "programs" / "demo.nc"), "--json"], fresh_env(cache))
+        print(f"\n   README's first command on a fresh cache: vcnc warmup {w['wall_s']:.1f} s wall "
+              f"({w['cpu_s']:.1f} s CPU), then vcnc run programs/demo.nc {d['wall_s']:.2f} s wall "
+              f"({d['cpu_s']:.2f} s CPU) -> bar <= 10 s {'met' if d['wall_s'] <= 10 else 'NOT met'}")
+
+    if not args.no_phases:
+        print("\n2. where the time goes: CPU seconds per phase, in this process (warm kernels, a trace written)")
+        print(f"{'program':28s} " + " ".join(f"{p:>11s}" for p in PHASES) + f" {'total':>8s} {'x (cpu)':>8s}")
+        for name, path, machine in rows:
+            split, sim = phase_split(path, machine, tmp)
+            total = sum(split.values())
+            print(f"{name:28s} " + " ".join(f"{split.get(p, 0.0):11.3f}" for p in PHASES)
+                  + f" {total:8.2f} {sim / total:8.0f}", flush=True)
+
+    print("\n3. vcnc interp, 30-point cubic NURBS, recursive n1 = 2, 2,000,000 periods")
+    prog, length = nurbs_program(tmp / "curve30.nc")
+    r = process(["interp", str(prog), "--step-um", f"{length / 2e6 * 1e3:.9g}", "--json"])
+    s = json.loads(r["stdout"].strip().splitlines()[-1])
+    print(f"   {s['steps']:,} periods: {s['steps_per_s'] / 1e6:.2f} M/s as reported (stepping wall time); "
+          f"{s['steps'] / r['wall_s'] / 1e6:.2f} M/s of the whole process's wall time ({r['wall_s']:.2f} s, "
+          f"{r['cpu_s']:.2f} s CPU)\n   bar >= 5 M/s: as reported {'met' if s['steps_per_s'] >= 5e6 else 'NOT met'}; "
+          f"by the whole process's wall time {'met' if s['steps'] / r['wall_s'] >= 5e6 else 'NOT met'}")
+
+    print("\nbars")
+    for name, bar in (("g1_stellabee1", 1000), ("g1_lhchips4", 1000), ("g6_farfalla", 200)):
+        if name in warm:
+            r = warm[name]
+            x = r["summary"]["cycle_time_s"] / r["cpu_s"]
+            print(f"   {name}: {x:.0f}x real time by whole-process CPU time (bar >= {bar}x: "
+                  f"{'met' if x >= bar else 'NOT met'}); {r['summary']['cycle_time_s'] / r['wall_s']:.0f}x by wall time")
+    big = next((r for n, r in warm.items() if n.startswith("generated")), None)
+    if big is not None:
+        print(f"   2 M-line program: peak RSS {big['rss_mb']:.0f} MB (bar <= 600 MB: "
+              f"{'met' if big['rss_mb'] <= 600 else 'NOT met'})")
 
 
 if __name__ == "__main__":
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     main()

@@ -71,7 +71,7 @@ def grbl_rows():
             print(f"  ({case.label}: ../shared absent, left out)")
             continue
         t0 = time.perf_counter()
-        first, last = motion_span(case.wire(), case.settings, baud=case.baud, reply_latency_s=SIM_CLIENT_S)
+        first, last = motion_span(case.wire(), case.settings, baud=case.baud, answer_s=SIM_CLIENT_S)
         wall = time.perf_counter() - t0
         yield "grbl 1.1h", case.label, case.motion_s, last - first, naive_s(case.entities(), case.settings), wall
 

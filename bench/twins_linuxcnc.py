@@ -3,7 +3,7 @@
 For every program of tests/data/linuxcnc_twin/measured.csv (LinuxCNC 2.9.0~pre1's own
 simulator, headless, on the machine of tests/data/linuxcnc_twin/ini/<machine>.ini; README.md
 there says how), the measured cycle time, the twin's prediction with the settings read from
-that INI file (ipo.feed.linuxcnc_twin.ini), its error, and the naive estimate a CAM system or
+that INI file (ipo.linuxcnc_ini), its error, and the naive estimate a CAM system or
 a sender prints: each move's length at its programmed feed (rapids at the rapid speed
 LinuxCNC would reach, [TRAJ]MAX_LINEAR_VELOCITY or the axis limits), dwells added, no
 acceleration. Programs from ../shared are skipped, saying so, where it is absent.
@@ -23,9 +23,9 @@ sys.path[:0] = [str(ROOT)]
 sys.path.append(str(ROOT / "tests"))  # after the repository: tests/ipo and tests/machine are folders of tests
 
 from linuxcnc_measured import measured, percent_error, twin_run  # noqa: E402
-from ipo.feed.linuxcnc_twin.ini import load_ini  # noqa: E402
+from ipo.linuxcnc_ini import load_ini  # noqa: E402
 from ipr.entities import Dwell, Rapid  # noqa: E402
-from machine.commands.parse import path_length_mm  # noqa: E402
+from machine.program_summary import path_length_mm  # noqa: E402
 
 
 def naive_estimate_s(path: Path, ini: Path) -> float:
@@ -57,7 +57,8 @@ def rows() -> list[dict]:
         run = twin_run(m.path, m.ini)
         wall = time.perf_counter() - t0
         naive = naive_estimate_s(m.path, m.ini)
-        out.append({"machine": m.machine, "program": m.program, "waits": m.waits_dominate, "measured_s": m.cycle_time_s,
+        group = "waits" if m.waits_dominate else ""
+        out.append({"machine": m.machine, "program": m.program, "group": group, "measured_s": m.cycle_time_s,
                     "twin_s": run.cycle_time_s, "twin_err": percent_error(run.cycle_time_s, m.cycle_time_s),
                     "naive_s": naive, "naive_err": percent_error(naive, m.cycle_time_s), "wall_s": wall})
     return out
@@ -72,15 +73,17 @@ def print_rows(rows_: list[dict]) -> None:
     print("LinuxCNC 2.9 twin against LinuxCNC 2.9.0~pre1's simulator (tests/data/linuxcnc_twin)")
     print(f"{'machine':9s} {'program':34s} {'measured_s':>10s} {'twin_s':>9s} {'err_%':>7s} "
           f"{'naive_s':>9s} {'err_%':>7s} {'wall_s':>7s}")
-    table = [r for r in rows_ if not r["waits"]]
+    table = [r for r in rows_ if not r["group"]]
     for r in table:
         _print(r)
-    waits = [r for r in rows_ if r["waits"]]
-    if waits:
-        print("programs written to measure task's waits (mostly standing at coolant, tool and spindle blocks:")
-        print("LinuxCNC's wall-clock timing, which varies from run to run; not in the figures below):")
-        for r in waits:
-            _print(r)
+    apart = {"waits": "programs written to measure task's waits (they stand mostly at coolant, tool and spindle\n"
+                      "blocks: LinuxCNC's wall-clock timing, which varies from run to run)"}
+    for group, why in apart.items():
+        rows_apart = [r for r in rows_ if r["group"] == group]
+        if rows_apart:
+            print(f"not in the figures below, {why}:")
+            for r in rows_apart:
+                _print(r)
     if not table:
         return
     for key, name in (("twin_err", "twin"), ("naive_err", "naive")):

@@ -5,12 +5,12 @@ never machine/:
 
 | room | what lives there | papers |
 |---|---|---|
-| `ipo.config` | the machine file (TOML -> MachineConfig); `ipo/machine.toml` is the documented default; `ipo.config_values` its ranges and value checks; `ipo.grbl_settings` grbl's `$$` for the grbl twin | — |
+| `ipo.config` | the machine file (TOML -> MachineConfig); `ipo/machine.toml` is the documented default; `ipo.config_values` its ranges and value checks; `ipo.grbl_settings` grbl's `$$` for the grbl twin; `ipo.linuxcnc_ini` a LinuxCNC INI file for the LinuxCNC twin | — |
 | `ipo.roughness` | 002's surface-roughness model of ball-end finishing (read by the machine-file check and the feed limiter) | 002 eq. 1–6 |
 | `ipo.contracts` | what every stage shares: the stepper contract (`Steps`) and the period stream (`PeriodBatch`, `LIMIT_*`) | 000 §2.2 |
 | `ipo.nurbs` | the NURBS kernel: vectorised evaluation, the compiled per-period form, sub-curves | 000 eq. 1–4 |
 | `ipo.interp` | constant-chord interpolation: recursive, Taylor, constant du, line/arc steppers, reference word and pulse, the chord study | 000 eq. 7–16, 002 eq. 7 |
-| `ipo.feed` | the feed stage: pieces and corner blends, samples, limits (002's roughness limiter), look-ahead, S-curve, period output, the planner; the controller twins beside it (`grbl_twin/`) and the registry that picks one (`profiles`) | 002 eq. 1–6 |
+| `ipo.feed` | the feed stage: pieces and corner blends, samples, limits (002's roughness limiter), look-ahead, S-curve, period output, the planner; the controller twins beside it (`grbl_twin/`, `linuxcnc_twin/`) and the registry that picks one (`profiles`) | 002 eq. 1–6 |
 | `ipo.fit` | G01 runs -> rational B-spline G06.2 groups within a tolerance, and `vcnc fit`'s program rewriting | 001 eq. 1–11 |
 | `ipo.surface` | digitised sections -> skinned rational surface -> IGES -> ball-end finishing passes | 001 eq. 12–18 |
 

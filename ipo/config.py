@@ -22,6 +22,8 @@ from ipo.config_values import no_extra as _no_extra
 from ipo.config_values import number as _number
 from ipo.config_values import take as _take
 from ipo.grbl_settings import DEFAULT_GRBL_BAUD, GrblSettings, machine_file_keys
+from ipo.linuxcnc_ini import LinuxcncSettings, with_ini
+from ipo.linuxcnc_ini import machine_file_keys as linuxcnc_keys
 
 # NURBS interpolators that can follow a feed profile (constant du cannot: it is for `vcnc interp` studies)
 METHODS = ("recursive", "taylor1", "taylor2")
@@ -102,6 +104,7 @@ class MachineConfig:
     planner: str = "vcnc"  # a key of PLANNERS: whose motion planning a run reproduces
     grbl_settings: GrblSettings | None = None  # the grbl twin's `$$` (None: from the axes, ipo.grbl_settings)
     grbl_baud: int = DEFAULT_GRBL_BAUD  # the grbl twin's serial link
+    linuxcnc_ini: LinuxcncSettings | None = None  # the LinuxCNC twin's INI file (ipo.linuxcnc_ini)
 
 
 def _axis(table: Any, name: str) -> AxisLimits:
@@ -263,7 +266,7 @@ def config_from_dict(data: dict, base: Path | None = None) -> MachineConfig:
     top = {"period_s", "blu_mm", "chord_tol_mm", "g64_blend_tol_mm", "method", "rapid_mm_s",
            "accel_mode", "axes", "work_offsets_mm", "tools", "finishing", "servo", "subroutine_path",
            "max_loop_iterations", "m99_repeat", "dialect", "g28_mm", "g30_mm", "user_mcodes", "stock",
-           "planner", "grbl"}
+           "planner", "grbl", "linuxcnc"}
     _no_extra(data, top, "")
     axes_table = _take(data, "axes", "")
     if not isinstance(axes_table, dict):
@@ -273,7 +276,7 @@ def config_from_dict(data: dict, base: Path | None = None) -> MachineConfig:
     tools = _tools(data.get("tools", {}))
     period = _number(_take(data, "period_s", ""), "period_s", positive=True)
     blu = _number(_take(data, "blu_mm", ""), "blu_mm", positive=True)
-    return MachineConfig(
+    config = MachineConfig(
         period_s=period,
         blu_mm=blu,
         chord_tol_mm=_number(_take(data, "chord_tol_mm", ""), "chord_tol_mm", positive=True),
@@ -295,6 +298,9 @@ def config_from_dict(data: dict, base: Path | None = None) -> MachineConfig:
         planner=_choice(data.get("planner", "vcnc"), "planner", tuple(PLANNERS)),
         **machine_file_keys(data.get("grbl", {}), base),
     )
+    ini = linuxcnc_keys(data.get("linuxcnc", {}), base)
+    # a LinuxCNC INI file describes the machine: its servo period and axis limits replace these
+    return with_ini(config, ini["linuxcnc_ini"]) if ini else config
 
 
 def _interpreter_keys(data: dict) -> dict:

@@ -2,7 +2,8 @@
 
 ipr refuses bad text (ipr.entities.GCodeError); ipo refuses, with IpoError, a motion it
 was handed but cannot follow: a curve whose derivative vanishes, an arc of zero radius, a
-move that does not start where the machine stands. The controller catches IpoError only;
+move that does not start where the machine stands; and, in the fitting and surface chain, the
+user's points, settings and surfaces it cannot take. The controller and the CLI catch IpoError only;
 anything else ipo raises (a ValueError for a bad argument, a RuntimeError, an
 AssertionError) is a bug and surfaces as one. The codes are listed in docs/gcode-errors.md.
 """
@@ -18,7 +19,19 @@ START = "E-IPO-START"  # a motion that does not start where the machine stands
 ROUGHNESS_TARGET = "E-IPO-ROUGHNESS-TARGET"  # a roughness target the pick feed cannot meet
 SCURVE = "E-IPO-SCURVE"  # no jerk-limited profile within the axis limits was found (S-curve mode)
 TWIN_INPUT = "E-IPO-TWIN-INPUT"  # a block a controller twin cannot model as the controller would receive it
-CODES = (NURBS_PATH, NURBS_DATA, NURBS_CUT, ARC_RADIUS, NON_FINITE, START, ROUGHNESS_TARGET, SCURVE, TWIN_INPUT)
+# The fitting and surface chain (vcnc fit, vcnc surface, vcnc toolpath): refusals of user input.
+FIT_SETTINGS = "E-IPO-FIT-SETTINGS"  # a fitting setting out of range (tolerance, degree, control points, corner angle)
+FIT_DATA = "E-IPO-FIT-DATA"  # points a fit cannot take (fewer than its control points, all at one place)
+FIT_TOLERANCE = "E-IPO-FIT-TOLERANCE"  # no control-point count fits every section within the tolerance
+SKIN = "E-IPO-SKIN"  # sections (or patches) that cannot be skinned into one surface
+SURFACE_POINTS = "E-IPO-SURFACE-POINTS"  # a digitised-points file that cannot be read as sections
+IGES = "E-IPO-IGES"  # an IGES file the reader cannot take, or a surface the writer cannot put in one
+SURFACE_DATA = "E-IPO-SURFACE-DATA"  # a rational surface whose net, weights or knots are not a surface
+TOOLPATH_SETTINGS = "E-IPO-TOOLPATH-SETTINGS"  # a ball, pick feed, tolerance, feed or direction out of range
+TOOLPATH_SURFACE = "E-IPO-TOOLPATH-SURFACE"  # a surface the ball cannot finish (undercut, gouge, gap, crease)
+CODES = (NURBS_PATH, NURBS_DATA, NURBS_CUT, ARC_RADIUS, NON_FINITE, START, ROUGHNESS_TARGET, SCURVE, TWIN_INPUT,
+         FIT_SETTINGS, FIT_DATA, FIT_TOLERANCE, SKIN, SURFACE_POINTS, IGES, SURFACE_DATA, TOOLPATH_SETTINGS,
+         TOOLPATH_SURFACE)
 
 
 class IpoError(ValueError):

@@ -41,22 +41,9 @@ class GrblSettings:
     source: str = "the machine file's axes"
 
     @property
-    def max_rate_mm_s(self) -> tuple[float, float, float]:
-        return tuple(v / 60.0 for v in self.max_rate_mm_min)
-
-    @property
     def idle_lock_s(self) -> float:
         """st_go_idle's wait inside the stepper interrupt when motion stops (none with $1=255)."""
         return 0.0 if self.idle_lock_ms == 255 else self.idle_lock_ms / 1000.0
-
-    def dump(self) -> str:
-        """The settings as `$$` prints them (the ones the twin reads)."""
-        vals = {1: float(self.idle_lock_ms), 11: self.junction_deviation_mm, 12: self.arc_tolerance_mm,
-                32: float(self.laser_mode)}
-        for i in range(3):
-            vals[100 + i], vals[110 + i], vals[120 + i] = (self.steps_per_mm[i], self.max_rate_mm_min[i],
-                                                           self.accel_mm_s2[i])
-        return "".join(f"${k}={int(v)}\n" if k in (1, 32) else f"${k}={v:.3f}\n" for k, v in sorted(vals.items()))
 
 
 def parse_dump(text: str, source: str) -> GrblSettings:

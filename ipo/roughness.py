@@ -23,12 +23,6 @@ def cusp_height_mm(r_mm: float, pick_mm: float) -> float:
     return quarter / (r_mm + np.sqrt(r_mm * r_mm - quarter))
 
 
-def conventional_rmax_mm(r_mm, ft_mm, fp_mm, rho_t_mm=np.inf, rho_p_mm=np.inf):
-    """Conventional model with surface curvature along and across the feed (002 eq. 1)."""
-    return (ft_mm**2 / (8 * r_mm) * (1 - r_mm / (rho_t_mm + r_mm))
-            + fp_mm**2 / (8 * r_mm) * (1 - r_mm / (rho_p_mm + r_mm)))
-
-
 def rmax_no_tip_mm(r_mm, fi_mm, pick_mm):
     """Tool tip not cutting, |alpha| > alpha_c (002 eq. 2)."""
     return (pick_mm**2 + (fi_mm - phase_shift_mm(pick_mm)) ** 2) / (8 * r_mm)

@@ -14,7 +14,9 @@ docs/gcode-errors.md; corner cases of the dialect: docs/gcode-notes.md).
 
 Modules: gcode.lark + syntax.py (grammar), shapes.py (fast path: line shapes parsed once),
 block.py (modal-group checks), interpreter.py (lines -> blocks, atomic commit), execute.py
-(a block's effects), plain.py (plain G0..G3 fast path), arcs.py, nurbs_blocks.py +
+(a block's effects), plain.py (plain G0..G3 fast path), plain_runs.py (numba: long stretches of
+plain G0/G1 lines read and run at once), memo.py (lines of a loop read once, their expressions
+compiled), arcs.py, nurbs_blocks.py +
 nurbs_groups.py (NURBS block forms), expressions.py, modal.py (state, Setup), errors.py;
 control flow: program_counter.py + oword.py over source.py (a file's lines); interpretation.py
 (a whole program run in batches, and ProgramText: a program kept to be interpreted again).

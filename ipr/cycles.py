@@ -4,8 +4,8 @@ The expansion is LinuxCNC's (interp_cycles.cc, convert_cycle_xy and CYCLE_MACRO)
 plane: the cycle's "Z" is the plane's normal axis (G17 Z, G18 Y, G19 X) and its "X Y" the
 two in-plane axes in ipr.entities.PLANE_AXES order. The arithmetic runs in program units and
 program coordinates, as rs274 does (so a peck lands on the same side of the bottom), and
-each point goes to machine mm at the end. The moves run in exact stop (LinuxCNC switches to
-CANON_EXACT_PATH for the cycle and back after it).
+each point goes to machine mm at the end. The moves run in exact path, G61 (LinuxCNC switches
+to CANON_EXACT_PATH for the cycle and back after it).
 
 Sticky values (RS274NGC): R, the normal-axis word, P and Q are remembered while the same
 cycle stays active; the initial level (G98's return height) is the normal-axis position when
@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 from ipr import polar
 from ipr.dialect import dwell_seconds
-from ipr.entities import EXACT_STOP, PLANE_AXES, Dwell, Line, Rapid, Spindle, Stop
+from ipr.entities import EXACT_PATH, PLANE_AXES, Dwell, Line, Rapid, Spindle, Stop
 from ipr.errors import BlockError, code_name
 from ipr.modal import to_machine, to_program
 from ipr.modes import move_feed_mm_s
@@ -55,14 +55,14 @@ class _Emitter:
         p[self.a], p[self.b], p[self.n] = aa * u, bb * u, cc * u
         return to_machine(self.st, p)
 
-    def traverse(self, aa, bb, cc, path=EXACT_STOP) -> None:
+    def traverse(self, aa, bb, cc, path=EXACT_PATH) -> None:
         end = self._point(aa, bb, cc)
         self.out.append(Rapid(self.line, self.pos, end, path))
         self.pos = end
 
     def feed_to(self, aa, bb, cc) -> None:
         end = self._point(aa, bb, cc)
-        self.out.append(Line(self.line, self.pos, end, self.feed, EXACT_STOP))
+        self.out.append(Line(self.line, self.pos, end, self.feed, EXACT_PATH))
         self.pos = end
 
     def dwell(self, seconds: float) -> None:

@@ -62,17 +62,20 @@ def set_file(entity, file: str) -> None:
 class PathControl:
     """G61/G61.1 exact stop, or G64 continuous with optional P blend and Q merge tolerances.
     `exact_path` tells G61 (LinuxCNC's exact path: its planner may still run through joints it
-    finds tangent) from G61.1 (exact stop at every joint)."""
+    finds tangent) from G61.1 (exact stop at every joint); `startup` marks the mode a program
+    runs in before it programs G61, G61.1 or G64 (continuous, as LinuxCNC starts; its canned
+    cycles then restore its canon's start-up blend tolerance, 0.001 in, after themselves)."""
 
     exact_stop: bool = False
     blend_tol_mm: float | None = None
     merge_tol_mm: float | None = None
     exact_path: bool = False
+    startup: bool = False
 
 
 EXACT_STOP = PathControl(exact_stop=True)
 EXACT_PATH = PathControl(exact_stop=True, exact_path=True)
-CONTINUOUS = PathControl()
+CONTINUOUS = PathControl(startup=True)
 
 
 @quick_init

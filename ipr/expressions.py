@@ -9,6 +9,7 @@ parameter (key an int, a lower-case name, or a tree giving the number); ("exists
 from __future__ import annotations
 
 import math
+import operator
 
 from ipr.errors import BlockError
 from ipr.parameters import MAX_PARAM
@@ -67,39 +68,42 @@ def _unary(name: str, x: float) -> float:
     raise BlockError("E-EXPR", f"unknown function {name.upper()}")
 
 
+def _divide(a: float, b: float) -> float:
+    if b == 0.0:
+        raise BlockError("E-EXPR", "division by zero")
+    return a / b
+
+
+def _modulo(a: float, b: float) -> float:
+    if b == 0.0:
+        raise BlockError("E-EXPR", "MOD by zero")
+    r = math.fmod(a, b)
+    return r + abs(b) if r < 0.0 else r   # never negative, as in RS274NGC
+
+
+def _power(a: float, b: float) -> float:
+    try:
+        r = a ** b
+    except (OverflowError, ZeroDivisionError):
+        raise BlockError("E-EXPR", f"{a:g}**{b:g} has no value") from None
+    if isinstance(r, complex):
+        raise BlockError("E-EXPR", f"{a:g}**{b:g}: negative base with a fractional power")
+    return float(r)
+
+
+_BINARY = {
+    "+": operator.add, "-": operator.sub, "*": operator.mul, "/": _divide, "mod": _modulo, "**": _power,
+    "and": lambda a, b: float(a != 0.0 and b != 0.0),
+    "or": lambda a, b: float(a != 0.0 or b != 0.0),
+    "xor": lambda a, b: float((a != 0.0) != (b != 0.0)),
+    "eq": lambda a, b: float(abs(a - b) < _EPS), "ne": lambda a, b: float(abs(a - b) >= _EPS),
+    "gt": lambda a, b: float(a > b), "ge": lambda a, b: float(a >= b),
+    "lt": lambda a, b: float(a < b), "le": lambda a, b: float(a <= b),
+}
+
+
 def _binary(op: str, a: float, b: float) -> float:
-    if op == "+":
-        return a + b
-    if op == "-":
-        return a - b
-    if op == "*":
-        return a * b
-    if op == "/":
-        if b == 0.0:
-            raise BlockError("E-EXPR", "division by zero")
-        return a / b
-    if op == "mod":
-        if b == 0.0:
-            raise BlockError("E-EXPR", "MOD by zero")
-        r = math.fmod(a, b)
-        return r + abs(b) if r < 0.0 else r   # never negative, as in RS274NGC
-    if op == "**":
-        try:
-            r = a ** b
-        except (OverflowError, ZeroDivisionError):
-            raise BlockError("E-EXPR", f"{a:g}**{b:g} has no value") from None
-        if isinstance(r, complex):
-            raise BlockError("E-EXPR", f"{a:g}**{b:g}: negative base with a fractional power")
-        return float(r)
-    if op == "and":
-        return float(a != 0.0 and b != 0.0)
-    if op == "or":
-        return float(a != 0.0 or b != 0.0)
-    if op == "xor":
-        return float((a != 0.0) != (b != 0.0))
-    cmp = {"eq": abs(a - b) < _EPS, "ne": abs(a - b) >= _EPS, "gt": a > b, "ge": a >= b,
-           "lt": a < b, "le": a <= b}
-    return float(cmp[op])
+    return _BINARY[op](a, b)
 
 
 def evaluate(node, params: dict) -> float:
@@ -130,3 +134,63 @@ def _evaluate(node, params: dict) -> float:
     if not math.isfinite(value):
         raise BlockError("E-EXPR", f"{node[0].upper()} overflows")
     return value
+
+
+def _finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise BlockError("E-EXPR", "expression has no finite value")
+    return value
+
+
+def _param_at(number: float, params) -> float:
+    """#[expr]: the parameter whose number an expression gives (param_key's rule)."""
+    return params[_check_number(_finite(number))]
+
+
+def _bin(op: str, a: float, b: float) -> float:
+    value = _binary(op, a, b)
+    if not math.isfinite(value):
+        raise BlockError("E-EXPR", f"{op.upper()} overflows")
+    return value
+
+
+def _atan(y: float, x: float) -> float:
+    return math.degrees(math.atan2(y, x))
+
+
+_SCOPE = {"_finite": _finite, "_param_at": _param_at, "_read": read_param, "_bin": _bin, "_atan": _atan,
+          "_unary": _unary}
+
+
+def _source(node) -> str:
+    """Python source computing _evaluate(node) from the parameter table `P`, step for step."""
+    if node.__class__ is float:
+        return repr(node)
+    head = node[0]
+    if head == "#":
+        key = node[1]
+        if key.__class__ is str:
+            return f"P[{key!r}]"
+        if key.__class__ is int and 1 <= key <= MAX_PARAM:
+            return f"P[{key}]"
+        if key.__class__ in (int, float):
+            return f"_read({key!r}, P)"   # raises E-PARAM when it is read, as evaluate does
+        return f"_param_at({_source(key)}, P)"
+    if head == "neg":
+        return f"(-{_source(node[1])})"
+    if head == "exists":
+        return f"P.exists({node[1]!r})"
+    if head == "atan":
+        return f"_atan({_source(node[1])}, {_source(node[2])})"
+    if len(node) == 2:
+        return f"_unary({head!r}, {_source(node[1])})"
+    return f"_bin({head!r}, {_source(node[1])}, {_source(node[2])})"
+
+
+def compile_expression(node):
+    """A function of the parameter table giving evaluate(node, table): the same value and the
+    same errors, without walking the tree each time (a loop body evaluates its lines millions
+    of times). Trees are at most ipr.syntax.MAX_EXPR_DEPTH deep, which Python's parser takes."""
+    if node.__class__ is float:
+        return lambda params: node
+    return eval(f"lambda P: _finite({_source(node)})", dict(_SCOPE))

@@ -1,7 +1,7 @@
 """Running the interpreter over a whole program: its entities batch by batch, as often as needed.
 
 An `Interpretation` drives the program counter (ipr.program_counter) over a program's lines
-and hands out the entities of each stretch of lines as a list of its own (a batch). Nothing
+and hands out its entities a list (a batch, of about BATCH entities) at a time. Nothing
 is kept between batches, so a program of any length, or a loop of any count, is interpreted
 in memory bounded by the program's source text. When the batches run out, `warnings` and
 `program_number` are final, and every error found (the first one, unless `all_errors`) is
@@ -26,6 +26,7 @@ from ipr.program_counter import Executor
 from ipr.source import Source, read_text
 
 _CHUNK_CHARS = 1 << 20
+BATCH = 4096   # entities gathered before a batch is handed out (a stretch of lines may make more)
 
 
 def text_lines(text: str) -> Iterator[str]:
@@ -64,29 +65,36 @@ class Interpretation:
 
     def __iter__(self) -> Iterator[list[Entity]]:
         interp, executor = self.interp, self.executor
-        while self._step():
+        more = True
+        while more:
+            more = self._steps()
+            if not more:
+                interp.finish(executor.last_line)
             if interp.out:
                 batch, interp.out = interp.out, []
                 yield batch
-        interp.finish(executor.last_line)
-        if interp.out:
-            batch, interp.out = interp.out, []
-            yield batch
         if interp.diagnostics:
             raise GCodeError(interp.diagnostics)
 
-    def _step(self) -> bool:
-        """One step of the program counter with the cyclic garbage collector held: a stretch of
-        lines makes tens of thousands of objects and no reference cycle, and the collector
-        would scan them (and every object of the process) a hundred times over; it runs
-        between steps instead (about 20 % of the time of a large CAM program)."""
-        if not gc.isenabled():
-            return self.executor.step()
+    def _steps(self) -> bool:
+        """Steps of the program counter until a batch of BATCH entities is made or the program
+        ends (False). A loop makes its entities one iteration (one step) at a time; gathered, a
+        consumer's per-batch work (vectorised checks) is paid once per batch, not per iteration.
+        The cyclic garbage collector is held meanwhile: a stretch of lines makes tens of
+        thousands of objects and no reference cycle, and the collector would scan them (and
+        every object of the process) a hundred times over; it runs between batches instead
+        (about 20 % of the time of a large CAM program)."""
+        gc_was_enabled = gc.isenabled()
         gc.disable()
         try:
-            return self.executor.step()
+            interp, step = self.interp, self.executor.step
+            while step():
+                if len(interp.out) >= BATCH:
+                    return True
+            return False
         finally:
-            gc.enable()
+            if gc_was_enabled:
+                gc.enable()
 
 
 class ProgramText:

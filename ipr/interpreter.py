@@ -21,15 +21,17 @@ from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
 from ipr.knockon import KnockOn
-from ipr.plain import compile_arc_step, compile_step
+from ipr.memo import ReadLine
+from ipr.plain import step_for
 from ipr.modal import ModalState, Setup, Staged
 from ipr.oword import parse_oword
 from ipr.parameters import substitute
 from ipr.shapes import MARK, expression_block, split_parts, template_for
-from ipr.syntax import LineSyntaxError, parse_line_columns
+from ipr.syntax import Block, LineSyntaxError, parse_line_columns
 
 MAX_VALUE = 1e31   # the fast path reads at most 30 digits; expressions may go further
 _NEW = object()    # a shape without a plan yet
+SCAN_LINES = 256   # a stretch this long is scanned for plain runs (ipr.plain_runs) first
 
 
 def spec_letter(spec: BlockSpec, word: int) -> str:
@@ -60,6 +62,7 @@ class Interpreter:
         self.diagnostics: list[Diagnostic] = []
         self.warnings: list[Diagnostic] = []
         self._plans: dict = {}
+        self._value_steps: dict = {}   # block signature -> ipr.plain step for evaluated words (or None)
         self._percents = 0
         self._started = False   # a block with words has been read (then % no longer opens)
         self.done = False
@@ -113,17 +116,9 @@ class Interpreter:
         else:
             spec = analyse(tuple(zip(tpl.letters, tpl.fixed)), self.setup.dialect)
             step = None
-            if spec.__class__ is BlockSpec and not tpl.delete and (spec.linear or spec.plain_arc):
+            if spec.__class__ is BlockSpec and not tpl.delete:
                 part = {w: 2 * j + 1 for j, w in enumerate(tpl.slots)}   # word -> index in parts
-                axis_parts = {k: part[i] for k, i in spec.axis_idx}
-                if spec.linear:
-                    step = compile_step(spec.motion, part.get(spec.f_index), axis_parts)
-                else:
-                    idx = spec.index
-                    offsets = {k: part[idx[letter]] for k, letter in enumerate("IJK") if letter in idx}
-                    word = idx["R"] if "R" in idx else idx[next(c for c in "IJK" if c in idx)]
-                    step = compile_arc_step(spec.motion, part.get(spec.f_index), axis_parts, offsets,
-                                            part.get(idx.get("R")), word)
+                step = step_for(spec, part)
             plan = (tpl, spec, step)
         self._plans[shape] = plan
         return plan
@@ -132,23 +127,62 @@ class Interpreter:
         """Interpret one line."""
         self.run((text,), line)
 
-    def run(self, lines: Iterable[str], first: int = 1) -> int:
+    def run(self, lines: list[str], first: int = 1, memo: dict | None = None) -> int:
         """Interpret lines numbered from `first` until they run out or the program ends;
-        returns the number of the last line read."""
+        returns the number of the last line read. `memo` (line -> what reading it gave) keeps
+        the lines of a program that may run them again (loops, subroutines: ipr.source)."""
         if self.done:
             return first - 1
+        if memo is None and len(lines) >= SCAN_LINES:
+            return self._run_scanned(lines, first)
+        return self._run_lines(lines, first, memo)
+
+    def _run_scanned(self, lines: list[str], first: int) -> int:
+        """A long stretch read at once: its runs of plain G0/G1 lines by ipr.plain_runs, the other
+        lines (and a plain line it hands back) one by one."""
+        from ipr import plain_runs   # numba: loaded for long programs only
+
+        scanned = plain_runs.Scanned(lines)
+        if not scanned.usable:
+            return self._run_lines(lines, first, None)
+        plain, state, i, n = scanned.plain, self.state, 0, len(lines)
+        while i < n:
+            if plain[i] and state.nurbs is None and not state.detour and not self.knock_on.doubt:
+                done = plain_runs.run(scanned, i, first + i, state, self.out)
+                if done:
+                    self._started = True
+                    i += done
+                    continue
+            j = i + 1
+            while j < n and not plain[j]:
+                j += 1
+            last = self._run_lines(lines[i:j], first + i, None)
+            if self.done:
+                return last
+            i = j
+        return first + n - 1
+
+    def _run_lines(self, lines: list[str], first: int, memo: dict | None) -> int:
         state, get, append, doubt = self.state, self._plans.get, self.out.append, self.knock_on.doubt
         started = self._started
-        n = first - 1
+        n, entry = first - 1, None
         for n, text in enumerate(lines, first):
-            parts = split_parts(text)
-            shape = MARK.join(parts[0::2])
-            plan = get(shape, _NEW)
-            if plan is _NEW:
-                plan = self._plan(shape)
+            if memo is not None and n in memo:
+                entry = memo[n]
+                plan, parts = entry.plan, entry.parts
+            else:
+                parts = split_parts(text)
+                shape = MARK.join(parts[0::2])
+                plan = get(shape, _NEW)
+                if plan is _NEW:
+                    plan = self._plan(shape)
+                if MARK in text:   # the shapes' slot marker itself: the full grammar
+                    plan = None
+                if memo is not None:
+                    entry = memo[n] = ReadLine(plan, parts)
             try:
-                if plan is None or MARK in text:   # the shapes' slot marker itself: the full grammar
-                    self._full(n, text)
+                if plan is None:
+                    self._full(n, text, entry)
                 elif plan[2] is not None and plan[2](parts, n, state, append):
                     if not started:
                         self._started = started = True
@@ -179,23 +213,20 @@ class Interpreter:
             vals[i] = float(s)
         self._execute(spec, vals, (), (), line, text)
 
-    def _full(self, line: int, text: str) -> None:
-        """A line that is not simple: expressions, parameters, comments, syntax errors."""
-        if sender_command(text):
-            raise BlockError("E-DIALECT", "a grbl system command ($H, $X, $$, $J=...) is for the sender, not "
-                             "G-code: vcnc runs the G-code and has no grbl settings", col=text.index("$") + 1)
-        block = expression_block(text)
-        if block is None:
-            try:
-                block, _ = parse_line_columns(text)
-            except LineSyntaxError as e:
-                oword = parse_oword(text)
-                if oword is None:
-                    raise BlockError(e.code, e.message, col=e.col) from None
-                self._started = True
-                self.control = (line, oword)
-                self.done = True
+    def _full(self, line: int, text: str, entry: ReadLine | None = None) -> None:
+        """A line that is not simple: expressions, parameters, comments, syntax errors. A line
+        read before (`entry`) is not parsed again, and from its second run on its expressions
+        are compiled (ipr.expressions.compile_expression)."""
+        if entry is not None and entry.block is not None:
+            block = entry.block
+            if entry.words is None:
+                entry.compile(self.setup.dialect)
+        else:
+            block = self._read(line, text)
+            if block is None:
                 return
+            if entry is not None:
+                entry.block = block
         if block.percent:
             # % opens a program on its first line and then closes it; anywhere else it is wrong
             if self._percents == 0 and not self._started:
@@ -211,35 +242,85 @@ class Interpreter:
             return
         params = self.state.params
         params.line = line
+        words, assigned = (None, None) if entry is None else (entry.words, entry.assigns)
         if not block.words and not block.messages and self.state.nurbs is None:
             # parameter assignments alone (loop counters): no codes to check, no state but the table
-            assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
-            for key, _ in assigns:
-                params.check_writable(key)
-            params.update(assigns)
+            params.update(self._assignments(block, assigned))
             return
-        vals = [v if v.__class__ is float else self._eval(v, i) for i, (_, v) in enumerate(block.words)]
+        vals = self._values(block, words)
         for i, ((letter, _), v) in enumerate(zip(block.words, vals)):
             if letter in "GM" and not -MAX_VALUE < v < MAX_VALUE:   # before the codes are looked up
                 raise BlockError("E-VALUE", f"{letter} value {v:g} is out of range", i)
-        assigns = [(param_key(k, params), evaluate(v, params)) for k, v in block.assigns]
-        for key, _ in assigns:
-            params.check_writable(key)
+        assigns = self._assignments(block, assigned)
         messages = block.messages
         if any(m.__class__ is not str for m in messages):
             messages = tuple(m if m.__class__ is str else substitute(m[1], params) for m in messages)
-        spec = analyse(tuple((l, v if l in "GM" else None) for (l, _), v in zip(block.words, vals)),
-                       self.setup.dialect)
+        if entry is not None and entry.spec is not None:
+            sig, spec = entry.spec
+        else:
+            sig = tuple((letter, v if letter in "GM" else None) for (letter, _), v in zip(block.words, vals))
+            spec = analyse(sig, self.setup.dialect)
         if spec.__class__ is BlockError:
             raise spec
+        if not assigns and not messages and not block.delete and self._short(sig, spec, vals, line):
+            return
         self._execute(spec, vals, assigns, messages, line, text)
 
-    def _eval(self, node, word: int) -> float:
+    def _read(self, line: int, text: str) -> Block | None:
+        """The Block of a line, or None for a control line (an O-word: `control` is set)."""
+        if sender_command(text):
+            raise BlockError("E-DIALECT", "a grbl system command ($H, $X, $$, $J=...) is for the sender, not "
+                             "G-code: vcnc runs the G-code and has no grbl settings", col=text.index("$") + 1)
+        block = expression_block(text)
+        if block is not None:
+            return block
         try:
-            return evaluate(node, self.state.params)
-        except BlockError as err:
-            err.word = word
-            raise
+            return parse_line_columns(text)[0]
+        except LineSyntaxError as e:
+            oword = parse_oword(text)
+            if oword is None:
+                raise BlockError(e.code, e.message, col=e.col) from None
+            self._started = True
+            self.control = (line, oword)
+            self.done = True
+            return None
+
+    def _values(self, block: Block, compiled) -> list[float]:
+        """The words' values: constants as they are, expressions evaluated (by their compiled form)."""
+        params, vals = self.state.params, []
+        for i, (_, v) in enumerate(block.words):
+            if v.__class__ is float:
+                vals.append(v)
+                continue
+            try:
+                vals.append(evaluate(v, params) if compiled is None else compiled[i](params))
+            except BlockError as err:
+                err.word = i
+                raise
+        return vals
+
+    def _assignments(self, block: Block, compiled) -> list:
+        """(key, value) of each #...= of the line, checked writable; applied after the line."""
+        params = self.state.params
+        out = [(param_key(k, params), evaluate(v, params) if compiled is None else compiled[j](params))
+               for j, (k, v) in enumerate(block.assigns)]
+        for key, _ in out:
+            params.check_writable(key)
+        return out
+
+    def _short(self, sig: tuple, spec, vals: list, line: int) -> bool:
+        """A plain G0..G3 block whose numbers came from expressions, through ipr.plain's step
+        (values in range only: the general path reports the others)."""
+        step = self._value_steps.get(sig, _NEW)
+        if step is _NEW:
+            step = self._value_steps[sig] = step_for(spec, {i: i for i in range(len(vals))})
+        if step is None or not all(-MAX_VALUE < v < MAX_VALUE for v in vals):
+            return False
+        if not step(vals, line, self.state, self.out.append):
+            return False
+        if self.knock_on.doubt:
+            self.knock_on.settled(spec)
+        return True
 
     def finish(self, last_line: int) -> None:
         """End of input: an open NURBS group is an error; the knock-on errors left out are noted."""

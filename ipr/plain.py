@@ -130,3 +130,17 @@ def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[in
         return True
 
     return step
+
+
+def step_for(spec, part: dict[int, int]):
+    """The step function of an ipr.block.BlockSpec if it is a plain G0..G3 block, reading word i's
+    value from parts[part[i]]; None for any other spec."""
+    axis_parts = {k: part[i] for k, i in spec.axis_idx}
+    if spec.linear:
+        return compile_step(spec.motion, part.get(spec.f_index), axis_parts)
+    if not spec.plain_arc:
+        return None
+    idx = spec.index
+    offsets = {k: part[idx[letter]] for k, letter in enumerate("IJK") if letter in idx}
+    word = idx["R"] if "R" in idx else idx[next(c for c in "IJK" if c in idx)]
+    return compile_arc_step(spec.motion, part.get(spec.f_index), axis_parts, offsets, part.get(idx.get("R")), word)

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ipr.entities import set_file
 from ipr.errors import BlockError
-from ipr.expressions import evaluate
+from ipr.expressions import compile_expression
 from ipr.oword import OWord
 from ipr.source import Source, read_text
 
@@ -117,7 +117,7 @@ class Executor:
             return self._end_of_file()
         interp.file = src.file
         mark = len(interp.out)
-        last = interp.run(lines, pc)
+        last = interp.run(lines, pc, src.memo if src.keep else None)
         if src is not self.main:
             for e in interp.out[mark:]:
                 set_file(e, src.file)
@@ -153,8 +153,12 @@ class Executor:
     # ---- O-words --------------------------------------------------------------------
     def _value(self, ow: OWord, i: int, n: int) -> float:
         self.params.line = n
+        compiled = self.src.compiled
+        key = (n, i)
+        if key not in compiled:   # control lines repeat (loop tests): compiled at their first run
+            compiled[key] = compile_expression(ow.args[i])
         try:
-            return evaluate(ow.args[i], self.params)
+            return compiled[key](self.params)
         except BlockError as err:
             err.col = err.col or ow.arg_cols[i]
             raise

@@ -46,6 +46,8 @@ class Source:
         self.subs: dict[str, int] = {}          # label -> line of its `sub`
         self.programs: dict[str, int] = {}      # Fanuc program number -> line of `O<n>`
         self.scanned = 0                        # definitions are indexed up to this line
+        self.memo: dict = {}                    # line -> what reading it gave (ipr.interpreter), once kept
+        self.compiled: dict = {}                # (line, argument) -> an O-word argument, compiled
         self._bom_checked = False
 
     # ---- lines ----------------------------------------------------------------------

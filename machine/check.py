@@ -32,8 +32,8 @@ import numpy as np
 from ipo.feed.planner import nurbs_end_gap_mm
 from ipo.feed.split import planning_problem
 from ipr import GCodeError, Program, ProgramText, Setup
-from ipr.entities import MOTION_TYPES, Arc, Line, Nurbs, Rapid, group_by_type
-from machine.extents import Excursion, travel_excursions
+from ipr.entities import MOTION_TYPES, Nurbs, Rapid, group_by_type
+from machine.extents import Excursion, excursions_of
 
 
 class ProgramRejected(Exception):
@@ -117,8 +117,7 @@ class _Travel:
         self.worst: dict[tuple[int, int, int], Excursion] = {}
 
     def add(self, groups: dict[type, list]) -> None:
-        motions = [e for cls in (Line, Rapid, Arc, Nurbs) for e in groups.get(cls, ())]
-        for x in travel_excursions(motions, self.lo_mm, self.hi_mm):
+        for x in excursions_of(groups, self.lo_mm, self.hi_mm):
             key = (x.line, x.axis, x.side)
             known = self.worst.get(key)
             if known is None or x.side * (x.reach_mm - known.reach_mm) > 0:

@@ -123,15 +123,6 @@ def _sagitta(p, i):
 
 
 @njit(cache=True)
-def chord_errors_mm(p_mm):
-    """Sagitta of each chord p[k]→p[k+1] on the circle through p[k], p[k+1], p[k+2]; (N-2,)."""
-    out = np.zeros(max(0, p_mm.shape[0] - 2))
-    for i in range(out.shape[0]):
-        out[i] = _sagitta(p_mm, i)
-    return out
-
-
-@njit(cache=True)
 def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
     """One pass over the positions ext (BLU; the first `old` rows measured before).
 
@@ -171,6 +162,31 @@ def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
             chord_out = math.sqrt((p[2, 0] - p[1, 0])**2 + (p[2, 1] - p[1, 1])**2 + (p[2, 2] - p[1, 2])**2)
             if min(chord_in, chord_out) >= MIN_CHORD_BLU * blu:
                 peak[10] = max(peak[10], _sagitta(p, 0))
+
+
+@njit(cache=True)
+def _follow(start, inc, lo, hi, blu, pos_mm):
+    """Positions (BLU) and commanded positions (mm) after each increment; the first period
+    outside [lo, hi] on some axis (or -1), and the first whose pos_mm is more than half a
+    BLU off the integrated position (the largest such difference's period, or -1)."""
+    n = inc.shape[0]
+    pos = np.empty((n, 3), np.int64)
+    cmd = np.empty((n, 3))
+    acc = start.copy()
+    worst, off = 0.5 * blu + 1e-9, -1
+    for k in range(n):
+        for a in range(3):
+            acc[a] += inc[k, a]
+            pos[k, a] = acc[a]
+        for a in range(3):
+            if acc[a] < lo[a] or acc[a] > hi[a]:
+                return pos, cmd, k, -1
+        for a in range(3):
+            cmd[k, a] = pos[k, a] * blu
+            d = abs(cmd[k, a] - pos_mm[k, a])
+            if d > worst:
+                worst, off = d, k
+    return pos, cmd, -1, off
 
 
 class Drive:
@@ -216,10 +232,10 @@ class Drive:
         if n == 0:
             return
         inc = np.asarray(batch.inc_blu, dtype=np.int64)
-        pos = self.position_blu + np.cumsum(inc, axis=0)
-        bad = np.nonzero(((pos < self._lo) | (pos > self._hi)).any(axis=1))[0]
-        if len(bad):
-            k = int(bad[0])
+        blu = self.limits.blu_mm
+        pos, cmd_mm, k, off = _follow(self.position_blu, inc, self._lo, self._hi, blu,
+                                      np.asarray(batch.pos_mm, dtype=np.float64))
+        if k >= 0:
             if k:
                 self.receive(PeriodBatch(batch.pos_mm[:k], inc[:k], batch.feed_mm_s[:k],
                                          batch.limit[:k], batch.line[:k]))
@@ -227,28 +243,27 @@ class Drive:
             limit = self.limits.min_mm[axis] if pos[k, axis] < self._lo[axis] else self.limits.max_mm[axis]
             raise TravelLimitError(axis, float(pos[k, axis] * self.limits.blu_mm), float(limit),
                                    int(batch.line[k]), self.t_s + self.limits.period_s)
-        blu = self.limits.blu_mm
-        cmd_mm = pos * blu
-        if np.max(np.abs(cmd_mm - batch.pos_mm)) > 0.5 * blu + 1e-9:
-            k = int(np.argmax(np.abs(cmd_mm - batch.pos_mm).max(axis=1)))
+        if off >= 0:
+            k = off
             raise CommandMismatchError(
                 f"line {int(batch.line[k])}: batch pos_mm {batch.pos_mm[k]} is not the integrated "
                 f"position {cmd_mm[k]} (BLU {blu} mm)")
         self._measure(pos)
-        steps = np.arange(1, n + 1)
-        spindle = self.spindle_rad + self.spindle_rad_s * self.limits.period_s * steps
-        rows = {"t_s": self.t_s + self.limits.period_s * steps, "pos_mm": cmd_mm,
-                "inc_blu": inc, "feed_mm_s": batch.feed_mm_s, "limit": batch.limit, "line": batch.line,
-                "spindle_rad": spindle}
-        if self.servo is not None:
-            actual, contour = self.servo.follow(cmd_mm)
-            self.stats.max_contour_error_mm = max(self.stats.max_contour_error_mm, float(contour.max()))
-            rows["actual_mm"] = actual
-            rows["contour_um"] = contour * 1e3
-        for sink in self.sinks:
-            sink.write(rows)
+        turn = self.spindle_rad_s * self.limits.period_s  # spindle angle per period
+        if self.servo is not None or self.sinks:
+            steps = np.arange(1, n + 1)
+            rows = {"t_s": self.t_s + self.limits.period_s * steps, "pos_mm": cmd_mm,
+                    "inc_blu": inc, "feed_mm_s": batch.feed_mm_s, "limit": batch.limit, "line": batch.line,
+                    "spindle_rad": self.spindle_rad + turn * steps}
+            if self.servo is not None:
+                actual, contour = self.servo.follow(cmd_mm)
+                self.stats.max_contour_error_mm = max(self.stats.max_contour_error_mm, float(contour.max()))
+                rows["actual_mm"] = actual
+                rows["contour_um"] = contour * 1e3
+            for sink in self.sinks:
+                sink.write(rows)
         self.position_blu = pos[-1].copy()
-        self.spindle_rad = float(spindle[-1] % (2.0 * math.pi))
+        self.spindle_rad = float((self.spindle_rad + turn * n) % (2.0 * math.pi))
         self.stats.periods += n
         self.line = int(batch.line[-1])
         self.feed_mm_s = float(batch.feed_mm_s[-1])

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo.nurbs.subcurve import sub_curve
-from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid, group_by_type
 
 # the extreme of a NURBS is decided to this (far below any BLU; well above rounding at 1e4 mm)
 EXTREME_TOL_MM = 1e-9
@@ -179,23 +179,28 @@ class Excursion(NamedTuple):
 
 
 def travel_excursions(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
-    """Every motion that leaves the travel, one Excursion per axis and side, in line order.
+    """Every motion that leaves the travel, one Excursion per axis and side, in line order."""
+    return excursions_of(group_by_type(list(motions)), lo_mm, hi_mm)
+
+
+def excursions_of(groups: dict[type, list], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
+    """travel_excursions of motions grouped by type (ipr.entities.group_by_type).
 
     A straight move spans its start and end, and its start is the previous motion's
     end (or the start position, which the caller checks), so its end point suffices.
     """
-    straight = [m for m in motions if type(m) is Line or type(m) is Rapid]
     boxes: list[tuple[int, np.ndarray, np.ndarray]] = []
+    straight = groups.get(Line, []) + groups.get(Rapid, [])
     if straight:
         ends = coordinates(straight, "end")
         bad = np.nonzero(((ends < lo_mm) | (ends > hi_mm)).any(axis=1))[0]
         boxes += [(straight[i].line, ends[i], ends[i]) for i in bad]
-    arcs = [m for m in motions if type(m) is Arc]
+    arcs = groups.get(Arc)
     if arcs:
         lo, hi = arc_boxes(arcs)
         bad = np.nonzero(((lo < lo_mm) | (hi > hi_mm)).any(axis=1))[0]
         boxes += [(arcs[i].line, lo[i], hi[i]) for i in bad]
-    boxes += [(m.line, *nurbs_extent(m, lo_mm, hi_mm)) for m in motions if type(m) is Nurbs]
+    boxes += [(m.line, *nurbs_extent(m, lo_mm, hi_mm)) for m in groups.get(Nurbs, ())]
     out: list[Excursion] = []
     for line, lo, hi in sorted(boxes, key=lambda b: b[0]):
         for i in range(3):

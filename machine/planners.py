@@ -21,6 +21,9 @@ def describe(config: MachineConfig) -> str:
         from ipo.feed.grbl_twin.twin import settings_of
 
         return f"grbl 1.1 twin: $$ of {settings_of(config).source}, {config.grbl_baud} baud"
+    if config.planner == "linuxcnc":
+        source = config.linuxcnc_ini.source if config.linuxcnc_ini else "the machine file's axes"
+        return f"LinuxCNC 2.9 twin: {source}"
     return config.planner
 
 
@@ -59,8 +62,9 @@ def plan_with_lines(config: MachineConfig, groups) -> Callable:
     return plan
 
 
-def with_planner(config: MachineConfig, name: str | None, grbl_settings=None) -> MachineConfig:
-    """config with a command line's --planner and --grbl-settings (None: the file's)."""
+def with_planner(config: MachineConfig, name: str | None, grbl_settings=None, linuxcnc_ini=None) -> MachineConfig:
+    """config with a command line's --planner, --grbl-settings and --linuxcnc-ini (None: the
+    file's); a LinuxCNC INI file also brings its servo period and axis limits (ipo.linuxcnc_ini)."""
     if name is not None and name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}; choose one of {', '.join(PLANNERS)}")
     changes = {}
@@ -68,4 +72,9 @@ def with_planner(config: MachineConfig, name: str | None, grbl_settings=None) ->
         changes["planner"] = name
     if grbl_settings is not None:
         changes["grbl_settings"] = grbl_settings
-    return dataclasses.replace(config, **changes) if changes else config
+    out = dataclasses.replace(config, **changes) if changes else config
+    if linuxcnc_ini is not None:
+        from ipo.linuxcnc_ini import with_ini
+
+        out = with_ini(out, linuxcnc_ini)
+    return out

@@ -53,7 +53,7 @@ def envelope_line(x: np.ndarray, y: np.ndarray, n: int = COLUMNS) -> tuple[np.nd
     return x[idx], y[idx]
 
 
-def _top(peak: float, limits) -> tuple[float, list[bool]]:
+def y_top(peak: float, limits) -> tuple[float, list[bool]]:
     """The y range's top, set by the data; which limits are near enough to be drawn in it."""
     shown = [lim is not None and lim <= LIMIT_IN_VIEW * peak for lim in limits]
     top = max([peak * 1.08 or 1.0] + [lim * 1.04 for lim, s in zip(limits, shown) if s])
@@ -131,7 +131,7 @@ def plot_digest(digest: Digest, out: str | Path, title: str = "", rapid_lines=()
         mag = np.maximum(np.abs(alo[:, cols]), np.abs(ahi[:, cols]))
         mag[~np.isfinite(mag)] = 0.0
         limits = [float(v) for v in meta[key]] if key in meta else [None] * 3
-        top, shown = _top(float(mag.max()), limits)
+        top, shown = y_top(float(mag.max()), limits)
         for i, name in enumerate("XYZ"):
             label = f"|{name}|" if limits[i] is None or shown[i] else f"|{name}| (limit {limits[i]:g} off scale)"
             # one level per column and no risers: an axis that stops in every other column (a raster's

@@ -17,7 +17,8 @@ DATA = ROOT / "tests" / "data" / "grbl_sim"
 SHARED = ROOT.parent / "shared"
 MEASURED = json.loads((DATA / "measured.json").read_text())
 SIM_BYTE_S = 66 / 16e6  # grbl-sim's own byte period at 115200: 2*UBRR0+1 ticks, doubled by U2X0
-SIM_CLIENT_S = 1e-4  # the measuring client's answer-to-next-line latency at -t 0.1 (about 1 ms of wall)
+SIM_CLIENT_S = 1e-4  # grbl's `ok` to the client's next line: grbl-sim writes answers with no wire time,
+# and the measuring client answers in about 1 ms of wall time, 0.1 ms at -t 0.1
 
 
 @dataclass(frozen=True)

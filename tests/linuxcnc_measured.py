@@ -20,19 +20,20 @@ import numpy as np
 from conftest import CORPUS_DIR, SHARED_DIR
 from ipo.config import default_config
 from ipo.contracts import LIMIT_DWELL, PeriodBatch
-from ipo.feed.linuxcnc_twin.ini import load_ini
+from ipo.linuxcnc_ini import load_ini
 from ipo.feed.linuxcnc_twin.planner import plan_periods
 
 DATA = Path(__file__).resolve().parent / "data" / "linuxcnc_twin"
 REFERENCE_PROGRAMS = SHARED_DIR / "reference" / "linuxcnc-sim" / "programs"
-_SOURCES = {"reference": REFERENCE_PROGRAMS, "corpus": CORPUS_DIR, "own": DATA / "programs"}
+NCFILES = Path("/usr/share/linuxcnc/ncfiles")  # LinuxCNC's examples, installed with linuxcnc-uspace
+_SOURCES = {"reference": REFERENCE_PROGRAMS, "corpus": CORPUS_DIR, "ncfiles": NCFILES, "own": DATA / "programs"}
 
 
 @dataclass(frozen=True)
 class Measured:
     machine: str
     program: str
-    source: str  # reference (../shared/reference/linuxcnc-sim), corpus (../shared/corpus), own (DATA)
+    source: str  # reference (../shared/reference/linuxcnc-sim), corpus (../shared/corpus), ncfiles, own (DATA)
     cycle_time_s: float
     path_length_mm: float
     note: str

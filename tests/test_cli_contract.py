@@ -176,7 +176,7 @@ def test_interp_bounds_the_number_of_steps():
 @pytest.mark.parametrize("content,words", [
     ("x,y,z,section\n" + "".join(f"{i},0,{i % 2},1\n" for i in range(6)), "two or more sections"),
     (BINARY, "not a text file"),
-    ("x,y,z,section\n0,0,0,1\n1e300,0,0,1\n2,0,0,1\n3,0,0,1\n0,1,0,2\n1,1,0,2\n2,1,0,2\n3,1,0,2\n", ":3: 1e+300 mm"),
+    ("x,y,z,section\n0,0,0,1\n1e300,0,0,1\n2,0,0,1\n3,0,0,1\n0,1,0,2\n1,1,0,2\n2,1,0,2\n3,1,0,2\n", ":3: error[E-IPO-SURFACE-POINTS]: 1e+300 mm"),
 ])
 def test_surface_on_bad_points(tmp_path, content, words):
     points = tmp_path / "p.csv"

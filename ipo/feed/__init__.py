@@ -12,11 +12,15 @@ machine stands).
   the NURBS corners (`nurbs_corner`), the curvature-continuous corners of S-curve mode
   (`curvature_continuous`) and their compiled kernels (`compiled`).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
+- `analytic`: the analytic pieces' points, tangents and curvature by arc length, compiled;
+  `arcs`: G2/G3 arcs laid out as such pieces (and trimmed by their blends), compiled.
 - `sampling`: where along the path the limits are evaluated.
 - `limits`: caps on v^2 at the samples, each with its reason, 002's roughness limiter
-  among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too).
+  among them (the model, eq. 1–6, is ipo.roughness: the machine-file check reads it too);
+  `cap_kernels`: the per-sample caps, compiled.
 - `merge`: G64 Q, G1 runs within Q of one line joined before the pieces (LinuxCNC's rule).
-- `lookahead`: the phase-plane profile and its time parameterisation.
+- `lookahead`: the phase-plane profile and its time parameterisation; `interval_lp`: the
+  two-variable programme of one interval that its backward pass solves per sample.
 - `scurve`: S-curve mode's window: jerk-limited segments committed and put out by period;
   `jerk_plan` finds them (anchors, passes, checks), `jerk_profile` holds the double-S closed
   forms.

@@ -19,50 +19,65 @@ from collections.abc import Callable, Iterator
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from ipo.config import MachineConfig
 from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
-from ipo.feed.lookahead import positions_at, sample_times
-from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces, evaluate
+from ipo.feed.lookahead import np_max, positions_at, sample_times
+from ipo.feed.analytic import points_along
+from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
 
 
-def period_reasons(xs: np.ndarray, src: np.ndarray, cap: np.ndarray, reason: np.ndarray,
-                   centripetal: np.ndarray, curvature_code: int) -> np.ndarray:
+@njit(cache=True, error_model="numpy")
+def period_reasons(xs, src, cap, reason, centripetal, curvature_code, accel_code):
     """Limit reason of each refined interval (xs = v^2 at the refined points, src = the
     sample each refined point lies after).
 
     A period is limited by a cap where both ends of its interval run at their caps, or one
     does and the speed stays level; else it is accelerating or braking (away from a
-    corner's cap, into a stop), unless `centripetal` (one flag per sample interval,
-    centripetal_binds) says an axis at its limit there owes most of it to the curvature:
-    below a curvature peak's cap, where one path acceleration cannot meet the axis limits
-    at both ends of an interval at the cap, that is `curvature_code`."""
-    k0, k1 = src[:-1], src[:-1] + 1
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r0 = (xs[:-1] >= cap[k0] * 0.995) & (cap[k0] > 0)
-        r1 = (xs[1:] >= cap[k1] * 0.995) & (cap[k1] > 0)
-    level = np.abs(xs[1:] - xs[:-1]) <= 0.01 * np.maximum(xs[:-1], xs[1:])
-    moving = np.where(centripetal[np.minimum(k0, len(centripetal) - 1)], curvature_code, LIMIT_ACCEL)
-    return np.where(r0 & (r1 | level), reason[k0],
-                    np.where(r1 & level, reason[k1], moving)).astype(np.int8)
+    corner's cap, into a stop: accel_code), unless `centripetal` (one flag per sample
+    interval, centripetal_binds) says an axis at its limit there owes most of it to the
+    curvature: below a curvature peak's cap, where one path acceleration cannot meet the
+    axis limits at both ends of an interval at the cap, that is `curvature_code`."""
+    n = xs.shape[0] - 1
+    out = np.empty(n, np.int8)
+    for i in range(n):
+        k0 = src[i]
+        k1 = k0 + 1
+        r0 = xs[i] >= cap[k0] * 0.995 and cap[k0] > 0
+        r1 = xs[i + 1] >= cap[k1] * 0.995 and cap[k1] > 0
+        level = abs(xs[i + 1] - xs[i]) <= 0.01 * np_max(xs[i], xs[i + 1])
+        if r0 and (r1 or level):
+            out[i] = reason[k0]
+        elif r1 and level:
+            out[i] = reason[k1]
+        else:
+            out[i] = curvature_code if centripetal[min(k0, centripetal.shape[0] - 1)] else accel_code
+    return out
 
 
-def centripetal_binds(s: np.ndarray, t: np.ndarray, kv: np.ndarray, x: np.ndarray, a_max: np.ndarray,
-                      ascale: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def centripetal_binds(s, t, kv, x, a_max, ascale):
     """Per sample interval: at one of its ends some axis runs within 1 % of its limit with
     the constant s'' of the interval, and the centripetal share kv_i x is most of it."""
-    ds = np.diff(s)
-    sdd = np.divide(np.diff(x), 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
-    out = np.zeros(len(ds), bool)
-    for end, xe in ((slice(None, -1), x[:-1]), (slice(1, None), x[1:])):
-        cen = kv[end] * xe[:, None]
-        acc = t[end] * sdd[:, None] + cen
-        at_limit = np.abs(acc) >= 0.99 * ascale[:, None] * a_max[None, :]
-        out |= np.any(at_limit & (np.abs(cen) >= 0.5 * np.abs(acc)), axis=1)
-    return out & (ds > 0)
+    n = s.shape[0] - 1
+    out = np.zeros(n, np.bool_)
+    for k in range(n):
+        ds = s[k + 1] - s[k]
+        if not ds > 0:
+            continue
+        sdd = (x[k + 1] - x[k]) / (2.0 * ds)
+        for end in range(2):
+            xe = x[k + end]
+            for a in range(3):
+                cen = kv[k + end, a] * xe
+                acc = t[k + end, a] * sdd + cen
+                if abs(acc) >= 0.99 * ascale[k] * a_max[a] and abs(cen) >= 0.5 * abs(acc):
+                    out[k] = True
+    return out
 
 
 class Profile(NamedTuple):
@@ -163,20 +178,16 @@ class PeriodOutput:
         """Points at arc lengths sv, quantised; split where events sit (the window's from
         index `used` on). Returns the index after the last event put out."""
         pieces, pstart, nurbs, events = window.pieces, window.pstart, window.drivers, window.events
-        loc = np.clip(np.searchsorted(pstart, sv, side="right") - 1, 0, len(pstart) - 1)
-        # a period ending exactly on a piece boundary belongs to the piece it completes
-        on_edge = (loc > 0) & (sv <= pstart[loc] + 1e-12)
-        loc = loc - on_edge
-        sigma = np.clip(sv - pstart[loc], 0.0, pieces.length[loc])
-        pos = evaluate(pieces, loc, sigma)
+        loc, pos = points_along(pieces.geometry, pstart, pieces.length, sv)
         mask = pieces.kind[loc] == KIND_NURBS
         if mask.any():
             _nurbs_points(pos, loc, sv, s_prev, mask, pieces, pstart, nurbs)
         blend = np.nonzero(pieces.kind[loc] == KIND_BLEND)[0]
-        for p in np.unique(loc[blend]):
-            at = blend[loc[blend] == p]
-            drv = nurbs[int(pieces.nurbs[p])]
-            pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
+        if len(blend):  # loc does not decrease: each blend's periods are one run
+            for at in np.split(blend, np.nonzero(np.diff(loc[blend]))[0] + 1):
+                p = loc[at[0]]
+                drv = nurbs[int(pieces.nurbs[p])]
+                pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
         feed = np.diff(sv, prepend=s_prev) / self.T
         line = pieces.line[loc]
         inc, end = quantise(pos, self.blu_mm, self.blu)

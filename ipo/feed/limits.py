@@ -10,17 +10,13 @@ import numpy as np
 from numba import njit
 
 from ipo.contracts import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_ROUGHNESS
+from ipo.feed.cap_kernels import (CORNER_SHARE, NEGLIGIBLE_STEP, axis_cap_at, combined_caps, curvature_cap_at,
+                                  geometric_caps)
 from ipo.roughness import inclination_rad, roughness_feed_mm_s
 
-_TINY = 1e-12
 # The roughness cap is planned a hair below its value: the profile meets it at samples and
 # the per-period feed is a mean over the period, which may otherwise exceed it by ~1e-5.
 ROUGHNESS_USE = 0.9999
-# Share of each axis limit left for the path acceleration next to an unblended corner,
-# whose own velocity step takes the rest within one period (corner_cap).
-CORNER_SHARE = 0.5
-# A tangent step below this share of an axis's per-period velocity change is no corner.
-NEGLIGIBLE_STEP = 0.005
 # An acceleration step da between two periods shows in the third finite difference of the
 # per-period positions (the jerk) weighted by the quadratic B-spline of the three periods
 # around it: at most 3/4 da / T, when the step falls mid-period.
@@ -36,54 +32,26 @@ G2_BLEND_MIN_X = 2.5
 RATE_OVER_STEP = 1.8
 
 
-def axis_velocity_cap(t: np.ndarray, v_max: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def axis_velocity_cap(t, v_max):
     """v |t_i| <= V_i on every axis."""
-    with np.errstate(divide="ignore"):
-        return np.min((v_max[None, :] / np.abs(t)) ** 2, axis=1)
+    out = np.empty(t.shape[0])
+    for k in range(t.shape[0]):
+        out[k] = axis_cap_at(t, k, v_max)
+    return out
 
 
-def curvature_cap(t: np.ndarray, kv: np.ndarray, a_max: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def curvature_cap(t, kv, a_max):
     """Largest x for which some path acceleration s'' keeps every axis within its limit.
 
     Axis i needs |t_i s'' + kv_i x| <= A_i: an interval for s'' centred on -kv_i x / t_i
     with half-width A_i / |t_i|. All intervals meet iff every pair does, which bounds x
     pairwise; an axis with t_i = 0 needs |kv_i| x <= A_i on its own.
     """
-    at = np.abs(t)
-    moving = at > _TINY
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(moving, kv / np.where(moving, t, 1.0), 0.0)
-        half = np.where(moving, a_max[None, :] / np.where(moving, at, 1.0), np.inf)
-        cap = np.where(~moving & (np.abs(kv) > _TINY), a_max[None, :] / np.abs(kv), np.inf).min(axis=1)
-        for i in range(3):
-            for j in range(i + 1, 3):
-                both = moving[:, i] & moving[:, j]
-                gap = np.abs(ratio[:, i] - ratio[:, j])
-                pair = np.where(both & (gap > _TINY), (half[:, i] + half[:, j]) / gap, np.inf)
-                cap = np.minimum(cap, pair)
-    return cap
-
-
-@njit(cache=True)
-def _window_max(s, kappa, reach):
-    """max of kappa over the samples within s[k] +- reach[k]."""
-    n = s.shape[0]
-    out = np.empty(n)
-    for k in range(n):
-        m = kappa[k]
-        j = k - 1
-        while j >= 0 and s[k] - s[j] <= reach[k]:
-            m = max(m, kappa[j])
-            j -= 1
-        if j >= 0:
-            m = max(m, kappa[j])  # the sample just outside bounds the curvature in between
-        j = k + 1
-        while j < n and s[j] - s[k] <= reach[k]:
-            m = max(m, kappa[j])
-            j += 1
-        if j < n:
-            m = max(m, kappa[j])
-        out[k] = m
+    out = np.empty(t.shape[0])
+    for k in range(t.shape[0]):
+        out[k] = curvature_cap_at(t, kv, k, a_max)
     return out
 
 
@@ -135,43 +103,6 @@ def curvature_rate_cap(s: np.ndarray, kv: np.ndarray, piece: np.ndarray, j_max: 
         return np.min((j_max[None, :] / rate) ** (2.0 / 3.0), axis=1)
 
 
-def chord_cap(s: np.ndarray, kv: np.ndarray, delta_mm: float, period_s: float,
-              x_other: np.ndarray) -> np.ndarray:
-    """Chord error within delta for every chord a period can span.
-
-    The formula V <= (2/T) sqrt(2 rho delta - delta^2) holds for a constant radius; on a
-    real curve the chord spans varying curvature, so rho is taken as the smallest radius
-    within one chord (at the speed the other limits allow) of the sample, iterated once
-    with the reduced speed.
-    """
-    kappa = np.linalg.norm(kv, axis=1)
-    reach = np.sqrt(np.minimum(x_other, 1e12)) * period_s
-    cap = np.full(len(s), np.inf)
-    for _ in range(2):
-        k_eff = _window_max(s, kappa, reach)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rho = np.where(k_eff > _TINY, 1.0 / k_eff, np.inf)
-            half = np.where(rho > delta_mm, 2 * rho * delta_mm - delta_mm**2, delta_mm**2)
-            v = np.where(np.isfinite(rho), 2.0 / period_s * np.sqrt(half), np.inf)  # algorithms.md §6
-        cap = v**2
-        reach = np.sqrt(np.minimum(np.minimum(x_other, cap), 1e12)) * period_s
-    return cap
-
-
-def corner_cap(dt: np.ndarray, a_max: np.ndarray, period_s: float, tol_mm: np.ndarray) -> np.ndarray:
-    """Speed cap at a corner crossed without a blend, with dt = t_out - t_in (J, 3).
-
-    Crossing within one period changes each axis velocity by v |dt_i| over at most a
-    period: v <= A_i T / (2 |dt_i|) leaves the other half of A_i for the path acceleration
-    next to the corner (the planner halves it there). The period's chord cuts the corner by at most
-    (v T / 2) sin(theta / 2) = v T |dt| / 4, kept within tol_mm.
-    """
-    with np.errstate(divide="ignore"):
-        v_acc = np.min((1.0 - CORNER_SHARE) * a_max[None, :] * period_s / np.abs(dt), axis=1)
-        v_cut = 4 * tol_mm / (period_s * np.linalg.norm(dt, axis=1))
-    return np.minimum(v_acc, v_cut) ** 2
-
-
 def step_caps(s: np.ndarray, kv: np.ndarray, edge: np.ndarray, j_max: np.ndarray, period_s: float) -> np.ndarray:
     """S-curve mode: cap on v^2 at each piece joint (samples edge, edge + 1) where the
     curvature vector steps by dk: v^2 |dk_i| <= J_i T / STEP_JERK_SHARE. A piece shorter than
@@ -203,26 +134,6 @@ def step_caps(s: np.ndarray, kv: np.ndarray, edge: np.ndarray, j_max: np.ndarray
     return out
 
 
-def _sharp(dt: np.ndarray, x_top: np.ndarray, a_max: np.ndarray, period_s: float,
-           j_max: np.ndarray | None) -> np.ndarray:
-    """Junctions whose tangent step dt (J, 3) matters: crossed at the top speed the other
-    limits allow there (v^2 <= x_top), it steps some axis velocity by more than
-    NEGLIGIBLE_STEP of what its acceleration (S-curve mode: its jerk) allows per period.
-    Smaller steps (an arc's spiral term left out of its frame, float noise) fit in the
-    planner's headroom below the limits."""
-    step = np.sqrt(np.minimum(x_top, 1e300))[:, None] * np.abs(dt)
-    room = a_max * period_s if j_max is None else np.minimum(a_max * period_s, j_max * period_s**2)
-    return np.any(step > NEGLIGIBLE_STEP * room[None, :], axis=1)
-
-
-def combine(caps: list[tuple[np.ndarray, int]]) -> tuple[np.ndarray, np.ndarray]:
-    """Element-wise minimum of several caps and the reason code of the binding one."""
-    stack = np.vstack([c for c, _ in caps])
-    arg = np.argmin(stack, axis=0)
-    codes = np.array([code for _, code in caps], dtype=np.int8)
-    return stack[arg, np.arange(stack.shape[1])], codes[arg]
-
-
 def _least_inclination(t: np.ndarray) -> np.ndarray:
     """Smallest inclination on the intervals next to each sample (0 where the tangent
     crosses the horizontal), so that the cap at the samples holds in between too."""
@@ -249,28 +160,10 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     v^3 kappa^2 <= J, and the machine stops at an unblended corner (crossing it would
     step the velocity itself).
     """
-    x_axis = axis_velocity_cap(smp.t, v_max)
-    x_curv = curvature_cap(smp.t, smp.kv, a_max)
-    x_corner = np.full(len(smp), np.inf)
-    edge = np.nonzero(smp.piece[1:] != smp.piece[:-1])[0]
-    dt = smp.t[edge + 1] - smp.t[edge]
-    sharp = _sharp(dt, np.minimum(np.minimum(x_axis, x_curv)[edge], np.minimum(x_axis, x_curv)[edge + 1]),
-                   a_max, period_s, j_max)
-    k = edge[sharp]
-    tol = np.maximum(delta_mm, pc.corner_tol_mm[smp.piece[k]])
-    c = corner_cap(dt[sharp], a_max, period_s, tol)
-    x_corner[k] = c
-    x_corner[k + 1] = c
-    corner = np.zeros(len(smp), bool)
-    corner[k] = corner[k + 1] = True
-    # every interval touching a corner sample is planned with CORNER_SHARE of the axis
-    # limits (lookahead.plan's ascale): its ends must be reachable within that share, or
-    # the look-ahead finds no feasible path acceleration there
-    near = corner.copy()
-    near[1:] |= corner[:-1]
-    near[:-1] |= corner[1:]
-    if near.any():
-        x_curv[near] = np.minimum(x_curv[near], curvature_cap(smp.t[near], smp.kv[near], CORNER_SHARE * a_max))
+    room = a_max * period_s if j_max is None else np.minimum(a_max * period_s, j_max * period_s**2)
+    x_axis, x_curv, x_corner, corner, edge, sharp = geometric_caps(
+        smp.t, smp.kv, smp.piece, pc.corner_tol_mm, v_max, a_max, (1.0 - CORNER_SHARE) * a_max * period_s,
+        NEGLIGIBLE_STEP * room, period_s, delta_mm)
     if j_max is not None:
         x_jerk = np.where(sharp, 0.0, step_caps(smp.s, smp.kv, edge, j_max, period_s))
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
@@ -281,21 +174,15 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         with np.errstate(divide="ignore"):
             x_corner = np.minimum(x_corner, (j_rate.min() / kappa**2) ** (2.0 / 3.0))
         x_corner = np.minimum(x_corner, curvature_rate_cap(smp.s, smp.kv, smp.piece, j_rate))
-    caps = [(x_axis, LIMIT_AXIS), (x_curv, LIMIT_CURVATURE), (x_corner, LIMIT_CURVATURE)]
-    x_chord = chord_cap(smp.s, smp.kv, delta_mm, period_s, combine(caps)[0])
-    caps.append((x_chord, LIMIT_CHORD))
+    rows = [x_axis, x_curv, x_corner, x_corner]  # row 3: the chord cap, filled in by combined_caps
+    codes = [LIMIT_AXIS, LIMIT_CURVATURE, LIMIT_CURVATURE, LIMIT_CHORD]
     if finishing is not None:
         r, pick, target, flutes = finishing
         rpm = pc.rpm[smp.piece]
         active = ~pc.rapid[smp.piece] & (rpm > 0)
         f = roughness_feed_mm_s(r, pick, target, flutes, rpm, _least_inclination(smp.t)) * ROUGHNESS_USE
-        caps.append((np.where(active, f**2, np.inf), LIMIT_ROUGHNESS))
-    cap, reason = combine(caps)
-    last = np.concatenate([edge, [len(smp) - 1]])
-    stops = last[pc.stop_after[smp.piece[last]]]
-    cap[stops] = 0.0
-    reason[stops] = LIMIT_DWELL
-    nxt = stops[stops + 1 < len(smp)] + 1
-    cap[nxt] = 0.0
-    reason[nxt] = LIMIT_DWELL
+        rows.append(np.where(active, f**2, np.inf))
+        codes.append(LIMIT_ROUGHNESS)
+    cap, reason = combined_caps(smp.s, smp.kv, smp.piece, pc.stop_after, edge, np.vstack(rows),
+                                np.array(codes, np.int8), delta_mm, delta_mm**2, period_s, LIMIT_DWELL)
     return cap, reason, corner

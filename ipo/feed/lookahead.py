@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ipo.feed.interval_lp import end_range, interval_rows, max_start_from
+
 _BIG = 1e300
 
 
@@ -38,80 +40,6 @@ def _bounds(t, kv, k, x, a_max, scale):
 
 
 @njit(cache=True)
-def interval_rows(t, kv, k, d, a_max, scale, rows):
-    """The axis limits at both ends of interval k as rows (p, q, r) of p x_k + q x_k+1 <= r,
-    with s'' = (x_k+1 - x_k) / d constant in between (d = 2 ds): |t_i s'' + kv_i x| <= scale A_i
-    at either end, for every axis moving there (what _bounds allows, as one linear system
-    in both ends' x, so that one s'' meets both ends). Returns the number of rows."""
-    m = 0
-    for j in range(2):
-        kk = k + j
-        for i in range(3):
-            ti = t[kk, i]
-            if abs(ti) <= 1e-12:
-                continue
-            p = -ti / d + (kv[kk, i] if j == 0 else 0.0)
-            q = ti / d + (kv[kk, i] if j == 1 else 0.0)
-            lim = scale * a_max[i]
-            rows[m, 0], rows[m, 1], rows[m, 2] = p, q, lim
-            rows[m + 1, 0], rows[m + 1, 1], rows[m + 1, 2] = -p, -q, lim
-            m += 2
-    return m
-
-
-@njit(cache=True)
-def max_start(rows, m, a_top, b_top):
-    """Largest x_k (<= a_top) with some x_k+1 in [0, b_top] meeting every row: a 2-variable
-    linear programme, solved at the vertices of its polygon. -1 if none is feasible."""
-    n = m + 4
-    r = np.empty((n, 3))
-    r[:m] = rows[:m]
-    r[m, 0], r[m, 1], r[m, 2] = 1.0, 0.0, a_top
-    r[m + 1, 0], r[m + 1, 1], r[m + 1, 2] = -1.0, 0.0, 0.0
-    r[m + 2, 0], r[m + 2, 1], r[m + 2, 2] = 0.0, 1.0, b_top
-    r[m + 3, 0], r[m + 3, 1], r[m + 3, 2] = 0.0, -1.0, 0.0
-    for i in range(n):  # unit normals: one feasibility tolerance for every row
-        h = np.sqrt(r[i, 0] ** 2 + r[i, 1] ** 2)
-        r[i] /= h
-    tol = 1e-9 * max(1.0, b_top)
-    best = -1.0
-    for i in range(n):
-        for j in range(i + 1, n):
-            det = r[i, 0] * r[j, 1] - r[i, 1] * r[j, 0]
-            if abs(det) < 1e-14:
-                continue
-            a = (r[i, 2] * r[j, 1] - r[i, 1] * r[j, 2]) / det
-            if a <= best:
-                continue
-            b = (r[i, 0] * r[j, 2] - r[i, 2] * r[j, 0]) / det
-            ok = True
-            for q in range(n):
-                if r[q, 0] * a + r[q, 1] * b > r[q, 2] + tol:
-                    ok = False
-                    break
-            if ok:
-                best = a
-    return min(best, a_top)
-
-
-@njit(cache=True)
-def end_range(rows, m, a):
-    """Range [lo, hi] of x_k+1 that the rows allow from x_k = a (lo > hi: none)."""
-    lo = 0.0
-    hi = _BIG
-    for i in range(m):
-        q = rows[i, 1]
-        rest = rows[i, 2] - rows[i, 0] * a
-        if q > 0.0:
-            hi = min(hi, rest / q)
-        elif q < 0.0:
-            lo = max(lo, rest / q)
-        elif rest < 0.0:
-            lo = _BIG
-    return lo, hi
-
-
-@njit(cache=True)
 def backward(s, t, kv, cap, a_max, ascale, x_end):
     """Largest x at each sample from which the machine can still meet every later cap, with
     one constant s'' per interval that keeps the axis limits at both of its ends."""
@@ -119,6 +47,9 @@ def backward(s, t, kv, cap, a_max, ascale, x_end):
     xb = np.empty(n)
     xb[n - 1] = min(cap[n - 1], x_end)
     rows = np.empty((12, 3))
+    unit = np.empty((16, 3))
+    near = np.empty(16, np.bool_)
+    pairs = np.full(4, -1, np.int64)  # the rows of the last optima: the next interval's first guesses
     for k in range(n - 2, -1, -1):
         xn = xb[k + 1]
         ds = s[k + 1] - s[k]
@@ -126,7 +57,7 @@ def backward(s, t, kv, cap, a_max, ascale, x_end):
             xb[k] = min(cap[k], xn)
             continue
         m = interval_rows(t, kv, k, 2.0 * ds, a_max, ascale[k], rows)
-        xk = max_start(rows, m, min(cap[k], _BIG), xn)
+        xk = max_start_from(rows, m, min(cap[k], _BIG), xn, unit, pairs, near)
         xb[k] = max(xk, 0.0)  # 0 always meets the rows (s'' = 0 between two stops)
     return xb
 
@@ -167,28 +98,62 @@ def plan(s, t, kv, cap, a_max, ascale, x0: float, x_end: float) -> np.ndarray:
     return forward(s, t, kv, xb, a_max, ascale, x0)
 
 
+@njit(cache=True)
+def np_max(a, b):
+    """np.maximum of two floats (a NaN in a wins, -0.0 against 0.0 keeps a)."""
+    return a if (a >= b or a != a) else b
+
+
+@njit(cache=True)
+def np_min(a, b):
+    """np.minimum of two floats."""
+    return a if (a <= b or a != a) else b
+
+
+@njit(cache=True)
+def _sample_times(s, x):
+    n = s.shape[0]
+    tc = np.empty(n)
+    tc[0] = 0.0
+    acc = 0.0
+    v0 = np.sqrt(np_max(x[0], 0.0))
+    for k in range(n - 1):
+        v1 = np.sqrt(np_max(x[k + 1], 0.0))
+        ds = s[k + 1] - s[k]
+        vsum = v0 + v1
+        if ds > 0 and vsum <= 0:
+            return tc, k
+        dt = 2.0 * ds / vsum if ds > 0 else 0.0
+        acc = acc + dt if k > 0 else dt
+        tc[k + 1] = acc
+        v0 = v1
+    return tc, -1
+
+
 def sample_times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
     """Time at each sample from the first, with constant s'' in each interval."""
-    v = np.sqrt(np.maximum(x, 0.0))
-    ds = np.diff(s)
-    vsum = v[:-1] + v[1:]
-    if np.any((ds > 0) & (vsum <= 0)):
-        k = int(np.nonzero((ds > 0) & (vsum <= 0))[0][0])
-        raise RuntimeError(f"look-ahead profile stands still inside the path at s = {s[k]:.6f} mm")
-    dt = np.divide(2.0 * ds, vsum, out=np.zeros_like(ds), where=ds > 0)
-    return np.concatenate([[0.0], np.cumsum(dt)])
+    tc, stuck = _sample_times(s, x)
+    if stuck >= 0:
+        raise RuntimeError(f"look-ahead profile stands still inside the path at s = {s[stuck]:.6f} mm")
+    return tc
 
 
-def positions_at(times: np.ndarray, s: np.ndarray, x: np.ndarray, tc: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
+@njit(cache=True)
+def positions_at(times, s, x, tc):
     """Arc length and the sample interval at each time (times within [0, tc[-1]])."""
-    k = np.clip(np.searchsorted(tc, times, side="right") - 1, 0, len(s) - 2)
-    tau = times - tc[k]
-    ds = s[k + 1] - s[k]
-    v0 = np.sqrt(np.maximum(x[k], 0.0))
-    acc = np.divide(x[k + 1] - x[k], 2.0 * ds, out=np.zeros_like(ds), where=ds > 0)
-    pos = np.minimum(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1])
-    return np.maximum(pos, s[k]), k
+    n = times.shape[0]
+    pos = np.empty(n)
+    ks = np.empty(n, np.int64)
+    last = s.shape[0] - 2
+    for i in range(n):
+        k = min(max(np.searchsorted(tc, times[i], side="right") - 1, 0), last)
+        tau = times[i] - tc[k]
+        ds = s[k + 1] - s[k]
+        v0 = np.sqrt(np_max(x[k], 0.0))
+        acc = (x[k + 1] - x[k]) / (2.0 * ds) if ds > 0 else 0.0
+        pos[i] = np_max(np_min(s[k] + v0 * tau + 0.5 * acc * tau * tau, s[k + 1]), s[k])
+        ks[i] = k
+    return pos, ks
 
 
 @njit(cache=True)

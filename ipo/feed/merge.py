@@ -61,7 +61,8 @@ def merge_collinear(entities: Iterable) -> Iterator:
 
     for e in entities:
         if not _mergeable(e):
-            yield from flush()
+            if chain:  # most programs have no Q: no generator per entity for an empty chain
+                yield from flush()
             yield e
             continue
         if chain:

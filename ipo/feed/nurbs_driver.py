@@ -17,6 +17,8 @@ of that solve (ipo.interp.steppers); constant du cannot follow a feed and is ref
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ipo.feed.sampling import NurbsTable, nurbs_table
@@ -77,21 +79,22 @@ class NurbsDriver:
     def _advance(self, target: np.ndarray, lead: float) -> np.ndarray:
         length = self.table.length
         out = np.repeat(self.end[None, :], len(target), axis=0)
-        d = np.maximum(np.diff(target, prepend=self.s_planned), 0.0)
+        d = np.maximum(target - np.concatenate(([self.s_planned], target[:-1])), 0.0)
         kappa = self.table.curvature_at(target - 0.5 * d)
         chord = d * (1.0 - (kappa * d) ** 2 / 24.0)  # chord of an arc of length d
         # the lag left by the last chunk is taken up over this one (a bump from and to zero), and
         # the gain moves to the last chunk's realised/asked ratio: the step correction never jumps
         n = len(target)
-        gain = self.gain_used + (self.gain - self.gain_used) * np.arange(1, n + 1) / n
-        bump = np.sin(np.pi * (np.arange(n) + 0.5) / n) ** 2
+        ramp, bump, bump_sum = _chunk_shape(n)
+        gain = self.gain_used + (self.gain - self.gain_used) * ramp / n
         lag = self.s_planned - self.s_reached
-        steps = np.maximum(chord * gain + lag * bump / bump.sum(), 0.0)
+        steps = np.maximum(chord * gain + lag * bump / bump_sum, 0.0)
         steps[0] += lead
         # a period that reaches the curve's end ends on it, even if the stepper lags (the
         # planner's arc lengths may fall short of the table's length by float rounding)
-        end = target >= length - _END_SNAP_MM
-        steps[end] = np.maximum(steps[end], 2.0 * length + 1.0)
+        if target[-1] >= length - _END_SNAP_MM:
+            end = target >= length - _END_SNAP_MM
+            steps[end] = np.maximum(steps[end], 2.0 * length + 1.0)
         st = self.stepper.advance(steps)
         self.gain_used = self.gain
         k = len(st.u)
@@ -103,7 +106,16 @@ class NurbsDriver:
             asked = float(steps.sum()) - lead
             planned, chords = float(target[-1]) - self.s_planned, float(chord.sum())
             if moved > 0 and chords > 0:
-                self.gain = float(np.clip(planned * asked / (chords * moved), 0.99, 1.01))
+                self.gain = min(max(planned * asked / (chords * moved), 0.99), 1.01)
             self.s_reached += moved
         self.s_planned = float(target[-1])
         return out
+
+
+@lru_cache(maxsize=None)
+def _chunk_shape(n: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """The gain's ramp 1..n and the lag's sin^2 bump (with its sum) over a chunk of n periods:
+    a chunk holds at most RESYNC_PERIODS periods, so a handful of shapes serve every curve."""
+    ramp, bump = np.arange(1, n + 1), np.sin(np.pi * (np.arange(n) + 0.5) / n) ** 2
+    ramp.flags.writeable = bump.flags.writeable = False  # shared by every chunk of n periods
+    return ramp, bump, bump.sum()

@@ -20,7 +20,7 @@ the part between its blends (ipo.nurbs.subcurve), which its stepper walks. In S-
 corner between two lines gets a curvature-continuous quintic within P instead of the arc
 (ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. G61 and P0 corners,
 reversals and corners where no blend fits are not blended: the planner crosses them within
-one period at the corner cap (ipo.feed.limits.corner_cap).
+one period at the corner cap (ipo.feed.cap_kernels.geometric_caps).
 """
 from __future__ import annotations
 
@@ -33,6 +33,8 @@ from ipo.nurbs import kernel as nk
 from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
+from ipo.feed.analytic import Geometry, evaluate, frame
+from ipo.feed.arcs import arc_pieces, move_points, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
@@ -77,40 +79,17 @@ class Pieces:
     def take(self, idx) -> "Pieces":
         return Pieces(*(getattr(self, f)[idx] for f in Pieces.__slots__))
 
+    @property
+    def geometry(self) -> Geometry:
+        """The analytic pieces' shape, as the compiled kernels take it (ipo.feed.analytic)."""
+        return Geometry(self.c, self.e1, self.e2, self.w, self.radius, self.dr, self.omega)
+
 
 def _empty(n: int) -> Pieces:
     z3 = np.zeros((n, 3))
     return Pieces(z3.copy(), z3.copy(), z3.copy(), z3.copy(), np.zeros(n), np.zeros(n), np.zeros(n),
                   np.zeros(n), np.zeros(n, np.int8), np.full(n, -1, np.int32), np.zeros(n, np.int32),
                   np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), np.zeros(n), np.zeros(n))
-
-
-def evaluate(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Points (N, 3) of analytic pieces idx at arc lengths sigma."""
-    phi = pc.omega[idx] * sigma
-    r = pc.radius[idx] + pc.dr[idx] * phi
-    return (pc.c[idx] + (r * np.cos(phi))[:, None] * pc.e1[idx] + (r * np.sin(phi))[:, None] * pc.e2[idx]
-            + sigma[:, None] * pc.w[idx])
-
-
-def frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit tangent and curvature vector d(tangent)/ds of analytic pieces (the spiral term dr,
-    at most microns over a whole arc, is left out)."""
-    t = pc.w[idx].copy()
-    k = np.zeros_like(t)
-    curved = np.nonzero(pc.omega[idx] != 0)[0]
-    if len(curved):
-        t[curved], k[curved] = _curved_frame(pc, idx[curved], sigma[curved])
-    return t, k
-
-
-def _curved_frame(pc: Pieces, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    phi = pc.omega[idx] * sigma
-    ro = (pc.radius[idx] * pc.omega[idx])[:, None]
-    cs, sn = np.cos(phi)[:, None], np.sin(phi)[:, None]
-    t = ro * (cs * pc.e2[idx] - sn * pc.e1[idx]) + pc.w[idx]
-    k = -(ro * pc.omega[idx][:, None]) * (cs * pc.e1[idx] + sn * pc.e2[idx])
-    return t, k
 
 
 class Motion(NamedTuple):
@@ -132,27 +111,14 @@ def motion_length(m: Motion, nurbs) -> float:
     return float(np.linalg.norm(np.subtract(e.end, e.start)))
 
 
-def _arc_piece(pc: Pieces, i: int, e: Arc) -> None:
-    a, b, n = PLANE_AXES[e.plane]
-    ua, ub, un = np.eye(3)[a], np.eye(3)[b], np.eye(3)[n]
-    start, end, centre = np.array(e.start), np.array(e.end), np.array(e.center)
-    r0 = e.radius_mm
-    if not r0 > 0:
-        raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", e.line)
-    r1 = float(np.hypot(end[a] - centre[a], end[b] - centre[b]))
-    sweep = e.sweep_rad
-    theta = abs(sweep)
-    e1 = ((start[a] - centre[a]) * ua + (start[b] - centre[b]) * ub) / r0
-    e2 = np.cross(un, e1) * np.sign(sweep)  # CCW turns from the first plane axis to the second
-    rise = end[n] - start[n]
-    length = float(np.hypot(0.5 * (r0 + r1) * theta, rise))
-    pc.c[i] = centre + (start[n] - centre[n]) * un
-    pc.e1[i], pc.e2[i] = e1, e2
-    pc.w[i] = un * rise / length
-    pc.radius[i] = r0
-    pc.dr[i] = (r1 - r0) / theta
-    pc.omega[i] = theta / length
-    pc.length[i] = length
+def _lay_out_arcs(arcs: Pieces, t_in: np.ndarray, t_out: np.ndarray, rows: np.ndarray, ents: list[Arc]) -> None:
+    """The arcs ents as rows `rows` of arcs (untrimmed), with their end tangents."""
+    bad = arc_pieces(arcs.geometry, arcs.length, t_in, t_out, rows, np.array([e.start for e in ents], dtype=float),
+                     np.array([e.end for e in ents], dtype=float), np.array([e.center for e in ents], dtype=float),
+                     np.array([e.radius_mm for e in ents]), np.array([e.sweep_rad for e in ents]),
+                     np.array([PLANE_AXES[e.plane] for e in ents], dtype=np.int64))
+    if bad >= 0:
+        raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", ents[bad].line)
 
 
 class Built(NamedTuple):
@@ -205,20 +171,17 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
     arcs = _empty(n)  # the untrimmed arcs, for their lengths, tangents and points
-    is_arc = np.zeros(n, bool)
+    is_arc = np.array([k is Arc for k in kinds])
     is_nurbs = np.array([k is Nurbs for k in kinds])
     t_in, t_out = unit.copy(), unit.copy()
-    for i, e in enumerate(ents):
-        if isinstance(e, Arc):
-            _arc_piece(arcs, i, e)
-            is_arc[i] = True
-            length[i] = arcs.length[i]
-            ends = frame(arcs, np.array([i, i]), np.array([0.0, length[i]]))[0]
-            t_in[i], t_out[i] = ends
-        elif is_nurbs[i]:
-            tab = nurbs[motions[i][2]].table
-            length[i] = tab.length
-            t_in[i], t_out[i] = tab.t[0], tab.t[-1]
+    arc_rows = np.nonzero(is_arc)[0]
+    if len(arc_rows):
+        _lay_out_arcs(arcs, t_in, t_out, arc_rows, [ents[i] for i in arc_rows])
+        length[arc_rows] = arcs.length[arc_rows]
+    for i in np.nonzero(is_nurbs)[0]:
+        tab = nurbs[motions[i][2]].table
+        length[i] = tab.length
+        t_in[i], t_out[i] = tab.t[0], tab.t[-1]
     # 2. size the corner blends: junction j joins moves j and j+1
     trim_in, trim_out = np.zeros(n), np.zeros(n)
     trim_in[0] = lead_trim_mm
@@ -288,24 +251,23 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     pc.omega[k] = 1.0 / radius[jb]
     pc.length[k] = radius[jb] * theta[jb]
     # 4. the Bezier blends (at arcs, at NURBS, curvature-continuous) with their drivers
-    for j in np.nonzero(curve[:emit])[0]:
-        a_pt, b_pt = _point(arcs, start, unit, is_arc, j, length[j] - d[j]), _point(arcs, start, unit, is_arc,
-                                                                                    j + 1, d[j])
-        ta = _tangent(arcs, unit, is_arc, j, length[j] - d[j])
-        tb = _tangent(arcs, unit, is_arc, j + 1, d[j])
-        h = 4.0 / 3.0 * np.tan(0.25 * theta[j]) * r_c[j]  # cubic approximation of a circular arc
-        _put_blend(pc, bl[j], np.array([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt]), nurbs, add_blend)
+    jc = np.nonzero(curve[:emit])[0]
+    if len(jc):
+        a_pt, ta = move_points(arcs.geometry, start, unit, is_arc, jc, length[jc] - d[jc])
+        b_pt, tb = move_points(arcs.geometry, start, unit, is_arc, jc + 1, d[jc])
+        h = (4.0 / 3.0 * np.tan(0.25 * theta[jc]) * r_c[jc])[:, None]  # cubic approximation of a circular arc
+        ctrl = np.stack([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt], axis=1)
+        for k, j in enumerate(jc):
+            _put_blend(pc, bl[j], ctrl[k], nurbs, add_blend)
     for j, ctrl in nurbs_blends.items():
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for j in np.nonzero(g2[:emit])[0]:
         _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
     # 5. arcs and NURBS without what their blends took
-    for i in np.nonzero(~ll)[0]:
-        e, slot = ents[i], 2 * i
-        if isinstance(e, Arc):
-            _copy_trimmed_arc(pc, slot, arcs, i, trim_in[i], trim_out[i])
-        else:
-            _trimmed_nurbs(pc, slot, motions[i][2], nurbs, trim_in[i], trim_out[i])
+    ra = np.nonzero(is_arc[:emit])[0]
+    trimmed_arcs(arcs.geometry, arcs.length, pc.geometry, pc.length, ra, 2 * ra, trim_in[ra], trim_out[ra])
+    for i in np.nonzero(is_nurbs[:emit])[0]:
+        _trimmed_nurbs(pc, 2 * i, motions[i][2], nurbs, trim_in[i], trim_out[i])
     keep = pc.length > _MIN_PIECE_MM  # blends may leave float-noise remnants of a straight
     return Built(pc.take(np.nonzero(keep)[0]), 0.0 if final else float(trim_in[n - 1]), nurbs)
 
@@ -362,34 +324,8 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
     if isinstance(e, Arc):
         def arc_at(x):
             sigma = np.array([base + sign * x])
-            return evaluate(arcs, np.array([i]), sigma)[0], frame(arcs, np.array([i]), sigma)[0][0]
+            return evaluate(arcs.geometry, np.array([i]), sigma)[0], frame(arcs.geometry, np.array([i]), sigma)[0][0]
 
-        return Side(arc_at, lambda x, n: evaluate(arcs, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
+        return Side(arc_at, lambda x, n: evaluate(arcs.geometry, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
     return Side(lambda x: (start[i] + unit[i] * (base + sign * x), unit[i]),
                 lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None])
-
-
-def _point(arcs: Pieces, start, unit, is_arc, i: int, sigma: float) -> np.ndarray:
-    if is_arc[i]:
-        return evaluate(arcs, np.array([i]), np.array([sigma]))[0]
-    return start[i] + unit[i] * sigma
-
-
-def _tangent(arcs: Pieces, unit, is_arc, i: int, sigma: float) -> np.ndarray:
-    if is_arc[i]:
-        return frame(arcs, np.array([i]), np.array([sigma]))[0][0]
-    return unit[i]
-
-
-def _copy_trimmed_arc(pc: Pieces, slot: int, arcs: Pieces, i: int, trim_in: float, trim_out: float) -> None:
-    """The arc i without its first trim_in and last trim_out millimetres."""
-    phi = arcs.omega[i] * trim_in
-    cs, sn = np.cos(phi), np.sin(phi)
-    pc.e1[slot] = cs * arcs.e1[i] + sn * arcs.e2[i]
-    pc.e2[slot] = -sn * arcs.e1[i] + cs * arcs.e2[i]
-    pc.c[slot] = arcs.c[i] + arcs.w[i] * trim_in
-    pc.w[slot] = arcs.w[i]
-    pc.radius[slot] = arcs.radius[i] + arcs.dr[i] * phi
-    pc.dr[slot] = arcs.dr[i]
-    pc.omega[slot] = arcs.omega[i]
-    pc.length[slot] = max(arcs.length[i] - trim_in - trim_out, 0.0)

@@ -34,7 +34,7 @@ from ipo.feed import lookahead as la
 from ipo.config import METHODS, MachineConfig
 from ipo.feed import scurve
 from ipo.feed.limits import CORNER_SHARE, axis_velocity_cap, g2_blend_limits, min_blend_radius_mm, sample_caps
-from ipo.contracts import LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
+from ipo.contracts import LIMIT_ACCEL, LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.emission import PeriodOutput, Profile, centripetal_binds, period_reasons
 from ipo.feed.intake import CornerRules, Intake
@@ -231,7 +231,8 @@ class FeedPlanner:
         s, xs, src = la.refine(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], cap[:c + 1], plateau,
                                self.a_max, ascale)
         cen = centripetal_binds(smp.s[:c + 1], smp.t[:c + 1], smp.kv[:c + 1], x[:c + 1], self.a_max, ascale)
-        prof = Profile(s, xs, src, period_reasons(xs, src, cap, reason, cen, LIMIT_CURVATURE), smp.s[:c + 1])
+        reasons = period_reasons(xs, src, cap, reason, cen, LIMIT_CURVATURE, LIMIT_ACCEL)
+        prof = Profile(s, xs, src, reasons, smp.s[:c + 1])
         k_stop, used = yield from self._output.emit(prof, self._win, stop=stop,
                                                     replan=lambda: self._override_changed)
         self._win.take_events(used)

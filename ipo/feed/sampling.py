@@ -8,15 +8,17 @@ spacing can resolve, and their arc length comes from Simpson's rule on |C'(u)|.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from ipo.nurbs import kernel as nk
 from ipo.feed.blends.compiled import bezier_points_at, bezier_table
 from ipo.errors import NURBS_PATH, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS
-from ipo.feed.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces, frame
+from ipo.feed.analytic import frame_into
+from ipo.feed.pieces import BEZIER3_KNOTS, KIND_ANALYTIC, Pieces
 
 MAX_TURN_RAD = 0.03
 MAX_SPACING_MM = 2.0
@@ -64,10 +66,12 @@ class NurbsTable:
     t: np.ndarray
     kv: np.ndarray
     end_gap_mm: float = 0.0  # the end samples' gap (nurbs_table), for tables of trimmed parts
+    bezier: bool = False  # a corner blend's table (its points by ipo.feed.blends.compiled)
+    _kappa: np.ndarray | None = field(default=None, init=False, repr=False)  # |kv|, on first use
 
     def s_of_u(self, u: float) -> float:
         """Arc length at u: cubic Hermite on s(u) with ds/du known at the samples."""
-        k = int(np.clip(np.searchsorted(self.u, u, side="right") - 1, 0, len(self.u) - 2))
+        k = min(max(int(np.searchsorted(self.u, u, side="right")) - 1, 0), len(self.u) - 2)
         h = self.u[k + 1] - self.u[k]
         q = (u - self.u[k]) / h
         h00, h10, h01, h11 = 2*q**3 - 3*q**2 + 1, q**3 - 2*q**2 + q, -2*q**3 + 3*q**2, q**3 - q**2
@@ -75,9 +79,8 @@ class NurbsTable:
 
     def points_at(self, e, s: np.ndarray) -> np.ndarray:
         """Points of NURBS e at arc lengths s (see u_at)."""
-        if _is_blend(e):
-            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, np.clip(s, 0.0, self.length),
-                                    _GAUSS_X, _GAUSS_W)
+        if self.bezier:  # the kernel clips s to [0, length] itself
+            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, s, _GAUSS_X, _GAUSS_W)
         return _derivs(e, self.u_at(e, s), 0)[0]
 
     def u_at(self, e, s: np.ndarray) -> np.ndarray:
@@ -100,7 +103,9 @@ class NurbsTable:
         return u
 
     def curvature_at(self, s: np.ndarray) -> np.ndarray:
-        return np.interp(s, self.s, np.linalg.norm(self.kv, axis=1))
+        if self._kappa is None:  # the NURBS driver asks every chunk of periods
+            self._kappa = np.linalg.norm(self.kv, axis=1)
+        return np.interp(s, self.s, self._kappa)
 
     @property
     def length(self) -> float:
@@ -190,7 +195,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
                                   MAX_TURN_RAD, MAX_SPACING_MM)
         if not ok:
             raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
-        return NurbsTable(*table)
+        return NurbsTable(*table, bezier=True)
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])
     u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
@@ -260,6 +265,48 @@ def _with_end_samples(e, u: np.ndarray, gap_mm: float) -> np.ndarray:
     return np.unique(np.concatenate([u, np.interp(np.concatenate([d, s[-1] - d]), s, u)]))
 
 
+@njit(cache=True)
+def _fill(g, length, n_int, analytic, gap, mid, gap_mm, starts, total):
+    """Samples of all pieces: n_int[i] equal intervals of each, plus (analytic pieces) the
+    samples gap_mm from either end (gap) or the midpoint (mid), in order of arc length, a
+    tie after the regular sample (the order a stable sort by (piece, sigma) gives). The
+    frames of analytic pieces too; the rows of the others are left for their tables."""
+    piece = np.empty(total, np.int64)
+    sigma = np.empty(total)
+    s = np.empty(total)
+    t = np.zeros((total, 3))
+    kv = np.zeros((total, 3))
+    first = np.empty(length.shape[0], np.int64)
+    extra = np.empty(2)
+    m = 0
+    for i in range(length.shape[0]):
+        first[i] = m
+        n, ln = n_int[i], length[i]
+        ne = 0
+        if gap[i]:
+            extra[0], extra[1], ne = gap_mm, ln - gap_mm, 2
+        elif mid[i]:
+            extra[0], ne = 0.5 * ln, 1
+        je = 0
+        for j in range(n + 1):
+            sg = ln * j / n
+            while je < ne and extra[je] < sg:
+                piece[m], sigma[m] = i, extra[je]
+                je += 1
+                m += 1
+            piece[m], sigma[m] = i, sg
+            m += 1
+        while je < ne:
+            piece[m], sigma[m] = i, extra[je]
+            je += 1
+            m += 1
+        if analytic[i]:
+            for k in range(first[i], m):
+                frame_into(g, i, sigma[k], t, kv, k)
+                s[k] = starts[i] + sigma[k]
+    return piece, sigma, s, t, kv, first
+
+
 def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: float = 0.0) -> Samples:
     """Samples of all pieces, arc length counted from s0 at the first piece's start.
 
@@ -272,29 +319,18 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     nurbs_idx = np.nonzero(pc.kind != KIND_ANALYTIC)[0]
     for i in nurbs_idx:
         n_int[i] = len(tables[int(pc.nurbs[i])].s) - 1
-    counts = n_int + 1
-    piece = np.repeat(np.arange(len(pc)), counts)
-    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    j = np.arange(len(piece)) - np.repeat(first, counts)
-    sigma = pc.length[piece] * j / n_int[piece]
     analytic = pc.kind == KIND_ANALYTIC
     gap = analytic & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
     # a short piece between two corners gets its midpoint: the profile is linear in v^2
     # between samples, so without it the piece is crossed at its slower corner's speed
     mid = analytic & ~gap & (n_int == 1) & (end_gap_mm > 0)
-    if gap.any() or mid.any():
-        g, h = np.nonzero(gap)[0], np.nonzero(mid)[0]
-        piece = np.concatenate([piece, g, g, h])
-        sigma = np.concatenate([sigma, np.full(len(g), end_gap_mm), pc.length[g] - end_gap_mm,
-                                0.5 * pc.length[h]])
-        order = np.lexsort((sigma, piece))
-        piece, sigma = piece[order], sigma[order]
-        counts = np.bincount(piece, minlength=len(pc))
-        first = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    t, kv = frame(pc, piece, sigma)
+    total = int(n_int.sum() + len(n_int) + 2 * gap.sum() + mid.sum())
+    starts = s0 + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
+    piece, sigma, s, t, kv, first = _fill(pc.geometry, pc.length, n_int, analytic, gap, mid, float(end_gap_mm),
+                                          starts, total)
     for i in nurbs_idx:
         tab = tables[int(pc.nurbs[i])]
-        sl = slice(first[i], first[i] + counts[i])
+        sl = slice(first[i], first[i] + len(tab.s))
         sigma[sl], t[sl], kv[sl] = tab.s, tab.t, tab.kv
-    starts = s0 + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
-    return Samples(starts[piece] + sigma, t, kv, piece, sigma)
+        s[sl] = starts[i] + tab.s
+    return Samples(s, t, kv, piece, sigma)

@@ -90,8 +90,9 @@ class Window:
         self.cap, self.reason, self.corner = self.cap[k:], self.reason[k:], self.corner[k:]
         first = int(self.samples.piece[0]) - self.piece_base
         if first > 0:
+            kept = set(self.pieces.nurbs[first:].tolist())
             for i in np.unique(self.pieces.nurbs[:first]):
-                if i >= 0 and i not in set(self.pieces.nurbs[first:].tolist()):
+                if i >= 0 and i not in kept:
                     self.drivers.pop(int(i), None)
             self.pieces = self.pieces.take(slice(first, None))
             self.pstart = self.pstart[first:]

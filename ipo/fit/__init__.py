@@ -10,5 +10,5 @@
   joined into G06.2 groups with a knot of multiplicity = degree at each corner.
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).
 
-May import: ipo.nurbs, ipr, numpy, numba.
+May import: ipo.errors, ipo.nurbs, ipr, numpy, numba.
 """

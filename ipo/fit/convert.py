@@ -1,15 +1,12 @@
 """Program -> program: replace chains of G01/G02/G03 moves by G06.2 (or G5.2) groups within a tolerance.
 
-Chains run through corners (ipo.fit.chains). With G06.2 (the default) each chain is planned
-as rational quadratic conic spans with their own knots and weights (ipo.fit.conic_plan,
-ipo.fit.weights); with G5.2, or a degree of 3 or more, as 001's rational fits on uniform
-knots (ipo.fit.groups). A group keeps a sharp corner as a knot of multiplicity = degree. Works on the text: the program is interpreted once (ipr.Interpreter, line by line,
-so that each entity is tied to its source line together with the units, distance
-mode and offsets in force there); every line outside a fitted piece is copied
-unchanged. A G06.2 group starts at the current position (its first block carries
-no axis word) and its last control point is the run's last vertex, written with
-enough digits to reproduce it exactly. The curve as written (rounded coordinates
-and weights) is checked against the tolerance again; a piece that fails stays G01.
+Chains run through corners (ipo.fit.chains). G06.2 (the default) writes rational quadratic conic
+spans with their own knots and weights (ipo.fit.conic_plan, ipo.fit.weights); G5.2, or a degree
+of 3 or more, 001's rational fits on uniform knots (ipo.fit.groups); a sharp corner is a knot of
+multiplicity = degree. The program is interpreted once, line by line, so each entity keeps its
+source line and the modes and offsets in force there; lines outside a fitted piece are copied
+unchanged. The curve as written (rounded) is checked against the tolerance again; a piece that
+fails stays G01.
 """
 from __future__ import annotations
 
@@ -23,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ipo.errors import FIT_SETTINGS, IpoError
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain
@@ -30,6 +28,7 @@ from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.rational import RationalFit
 from ipr import Setup, parse_line
 from ipr.entities import Arc, Line
+from ipr.gcodes import FEED_PER_MINUTE
 from ipr.interpreter import Interpreter
 
 PURE_LETTERS = frozenset("NGXYZIJKRF")
@@ -41,7 +40,6 @@ OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 END_DIGITS = 9  # the last control point: as exact as the source's own number
 WEIGHT_DIGITS = 7  # significant digits of a weight (weights span several decades)
 KNOT_DIGITS = 6
-G94_MODE = 940  # ipr's feed_mode of G94 (units per minute)
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -74,12 +72,8 @@ class ConvertReport:
 
 def count_blocks(text: str) -> int:
     """Lines that carry a word (not blank, not comment-only, not '%')."""
-    n = 0
-    for raw in text.split("\n"):
-        s = re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip()
-        if s and s != "%":
-            n += 1
-    return n
+    words = (re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip() for raw in text.split("\n"))
+    return sum(1 for s in words if s and s != "%")
 
 
 def fmt(value: float, digits: int) -> str:
@@ -109,7 +103,7 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
             if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
                 frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane,
-                                  st.feed_mode == G94_MODE)
+                                  st.feed_mode == FEED_PER_MINUTE)
             entities.extend(out)
             out.clear()
         if interp.done:
@@ -251,13 +245,13 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece);
     degree: None for the dialect's own (2, conic spans, for G06.2; 3 for G5.2))."""
     if dialect not in DIALECTS:
-        raise ValueError(f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
+        raise IpoError(FIT_SETTINGS, f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
-        raise ValueError(f"tolerance must be > 0 mm, got {tol_mm}")
+        raise IpoError(FIT_SETTINGS, f"tolerance must be > 0 mm, got {tol_mm}")
     if degree is None:
         degree = 2 if dialect == "g06.2" else 3
     if not 1 <= degree <= 5:
-        raise ValueError(f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
+        raise IpoError(FIT_SETTINGS, f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
     lines = text.split("\n")  # as the IPR numbers lines: "\n" only
     entities, frames, counts = _interpret(lines, file, setup)
     pure = {n for n in frames if frames[n].per_minute and _pure(lines[n - 1])}
@@ -347,7 +341,7 @@ def _plan_all(planner, chains: list[Chain], options: list[FitOptions], jobs: int
     (each chain's fit is independent of the others; results come back in order)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
-        raise ValueError(f"jobs must be >= 1, got {jobs}")
+        raise IpoError(FIT_SETTINGS, f"jobs must be >= 1, got {jobs}")
     if jobs == 1 or len(chains) < 2 * jobs:
         return [planner(c, o) for c, o in zip(chains, options)]
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
+from ipo.errors import FIT_SETTINGS, IpoError
 from ipr.entities import Line
 
 DEFAULT_CORNER_DEG = 30.0
@@ -39,7 +40,7 @@ def split_runs(entities: Iterable, *, corner_deg: float = DEFAULT_CORNER_DEG,
 
     Zero-length moves never join a run (they have no direction)."""
     if not 0.0 <= corner_deg <= 180.0:
-        raise ValueError(f"corner angle must be within 0..180 degrees, got {corner_deg}")
+        raise IpoError(FIT_SETTINGS, f"corner angle must be within 0..180 degrees, got {corner_deg}")
     runs: list[list[Line]] = []
     current: list[Line] = []
     for e in entities:

@@ -69,10 +69,6 @@ def densify(q: np.ndarray, min_points: int) -> np.ndarray:
     return np.vstack([q[owner] + t[:, None] * (q[owner + 1] - q[owner]), q[-1:]])
 
 
-def arc_params(q: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-
-
 def fit_section(q: np.ndarray, opt: FitOptions, max_ctrl: int) -> tuple[RationalFit, np.ndarray, float] | None:
     """The fewest control points for which 001's rational fit of q (ends pinned) is within opt.tol_mm
     both ways, the data it was checked on and its deviation; None if none within max_ctrl."""

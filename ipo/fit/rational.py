@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import FIT_DATA, FIT_SETTINGS, IpoError
 from ipo.fit.compiled import foot_params
 from ipo.nurbs.kernel import basis, find_span
 
@@ -42,7 +43,7 @@ class RationalFit:
 def uniform_knots(n_ctrl: int, degree: int) -> np.ndarray:
     """Clamped uniform knots on [0, n - k + 2] (k = degree + 1 the order, n = n_ctrl - 1)."""
     if degree < 1 or n_ctrl < degree + 1:
-        raise ValueError(f"need at least degree + 1 = {degree + 1} control points, got {n_ctrl}")
+        raise IpoError(FIT_SETTINGS, f"need at least degree + 1 = {degree + 1} control points, got {n_ctrl}")
     inner = np.arange(1, n_ctrl - degree, dtype=float)
     end = float(n_ctrl - degree)
     return np.concatenate([np.zeros(degree + 1), inner, np.full(degree + 1, end)])
@@ -53,7 +54,7 @@ def chord_params(q: np.ndarray, u_max: float) -> np.ndarray:
     steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
     total = steps.sum()
     if total <= 0.0:
-        raise ValueError("data points are all identical: nothing to fit")
+        raise IpoError(FIT_DATA, "data points are all identical: nothing to fit")
     return u_max * np.concatenate([[0.0], np.cumsum(steps)]) / total
 
 
@@ -193,7 +194,7 @@ def fit_rational(q: np.ndarray, n_ctrl: int, degree: int = 3, *, max_iter: int =
     q = np.asarray(q, dtype=float)
     r = len(q)
     if r < n_ctrl:
-        raise ValueError(f"{r} data points cannot determine {n_ctrl} control points")
+        raise IpoError(FIT_DATA, f"{r} data points cannot determine {n_ctrl} control points")
     knots = uniform_knots(n_ctrl, degree)
     spans = SpanPolynomials(knots, degree)
     u_max = knots[-1]

@@ -17,6 +17,7 @@ from typing import Callable
 
 import numpy as np
 
+from ipo.errors import FIT_DATA, FIT_SETTINGS, IpoError
 from ipo.fit.compiled import foot_params
 from ipo.fit.rational import RationalFit, SpanPolynomials, evaluate, fit_rational
 
@@ -237,11 +238,11 @@ def fit_polyline(q: np.ndarray, s: FitSettings,
     """Cover the vertices 0..len(q)-1 with consecutive pieces (fitted curves or G01)."""
     q = np.asarray(q, dtype=float)
     if s.tol_mm <= 0:
-        raise ValueError(f"tolerance must be > 0 mm, got {s.tol_mm}")
+        raise IpoError(FIT_SETTINGS, f"tolerance must be > 0 mm, got {s.tol_mm}")
     cost = blocks or (lambda m: nurbs_blocks(m, s.degree))
     n_seg = len(q) - 1
     if n_seg < 1:
-        raise ValueError("a polyline needs at least two vertices")
+        raise IpoError(FIT_DATA, "a polyline needs at least two vertices")
     parts = int(np.ceil(n_seg / MAX_POINTS_PER_FIT))
     bounds = np.linspace(0, n_seg, parts + 1).round().astype(int)
     pieces: list[Piece] = []

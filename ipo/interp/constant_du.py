@@ -11,9 +11,12 @@ from ipo.nurbs.compiled import dist3, poly_point, poly_span
 
 
 @njit(cache=True)
-def constant_du_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, du):
-    """One period: u + du, or the end point when that passes u_max.
-    Returns (du, x, y, z, chord, evals, at_end, span)."""
+def constant_du_step(curve, span, u, p, du):
+    """One period from P(u) = p on the curve (ipo.nurbs.compiled.SpanCurve): u + du, or the
+    end point when that passes u_max. Returns (du, x, y, z, chord, evals, at_end, span)."""
+    breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
+    ru = curve.u_max - u
+    px, py, pz = p
     if du >= ru:
         s = dist3(px, py, pz, end[0], end[1], end[2])
         return ru, end[0], end[1], end[2], s, 1, True, span

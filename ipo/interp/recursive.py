@@ -23,12 +23,22 @@ dividing by zero, so the parameter always moves forward.
 from __future__ import annotations
 
 from math import inf, sqrt
+from typing import NamedTuple
 
 from numba import njit
 
 from ipo.nurbs.compiled import dist3, poly_point, poly_span
 
 STARTUP_CAP = 64  # evaluations a tolerance start-up may spend before it takes its last trial
+
+
+class ChordRule(NamedTuple):
+    """When recursive_step accepts a trial, and how it makes the next one."""
+
+    n_fixed: int  # paper mode (tol < 0): the increment whose point is the output (n1 or m1)
+    tol: float  # tolerance modes: relative chord tolerance (< 0: paper mode)
+    cap: int  # tolerance modes: evaluations before the last trial is taken
+    secant: bool  # the adaptive update (see the module docstring) instead of eq. 9
 
 
 @njit(cache=True)
@@ -68,16 +78,19 @@ def _quadratic_root(d, xa, ya, xb, yb):
 
 
 @njit(cache=True)
-def recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
-                   n_fixed, tol, cap, secant, gb, sb):
-    """One period from P(u) = (px, py, pz) towards chord d, starting from the guess g.
+def recursive_step(curve, rule, span, u, p, d, g, prev):
+    """One period from P(u) = p on the curve (ipo.nurbs.compiled.SpanCurve) towards chord d,
+    starting from the guess g, under the ChordRule `rule`.
 
-    n_fixed: increments in paper mode (n1 or m1), used when tol < 0.
-    tol: relative chord tolerance of the tolerance modes; cap: their evaluation limit.
-    gb, sb: the previous step (Delta u_{j-1}, s_{j-1}) for the secant model, sb = 0 if none.
+    prev: the previous step (Delta u_{j-1}, s_{j-1}) for the secant model, s = 0 if none.
     A trial at or beyond u_max is the end point; when that end lies within d (plus the
     tolerance) the period ends the curve.
     Returns (du, x, y, z, chord, evals, at_end, span)."""
+    n_fixed, tol, cap, secant = rule
+    breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
+    ru = curve.u_max - u
+    px, py, pz = p
+    gb, sb = prev
     evals = 0
     k = 1
     lo, flo = 0.0, -d  # bracket of du with chord - d below and above zero

@@ -13,15 +13,17 @@ is an acceleration error). Constant du has no chord to hold.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
 from ipo.interp.constant_du import constant_du_step
 from ipo.interp.line_arc import ArcStepper, LineStepper
-from ipo.nurbs.compiled import compile_curve, dist3, poly_derivs2
+from ipo.nurbs.compiled import SpanCurve, compile_curve, poly_derivs2
 from ipo.contracts import Steps
 from ipo.errors import NURBS_DATA, IpoError
-from ipo.interp.recursive import STARTUP_CAP, eq9, predict_ratio, recursive_step
+from ipo.interp.recursive import STARTUP_CAP, ChordRule, eq9, predict_ratio, recursive_step
 from ipo.interp.taylor import taylor_step
 from ipr.entities import Arc, Line, Nurbs, Rapid
 
@@ -39,10 +41,32 @@ _LEAD_NOISE_MM = 1e-9  # a first step shorter than the lead by less than this is
 _RATIO_MIN_MM = 1e-9
 
 
+class WalkOptions(NamedTuple):
+    """The parameter update and its settings (make_stepper's options, in kernel units)."""
+
+    method: int  # one of METHODS' values
+    n1: int  # recursive: increments per period (000 eq. 8-9)
+    m1: int  # recursive: increments of the start-up (000 eq. 12-14)
+    start_tol: float  # relative chord tolerance of the start-up (§2.2.1); < 0: none
+    chord_tol: float  # relative chord tolerance of every period; < 0: none
+    max_evals: int  # evaluations per period under chord_tol
+    du: float  # constant du: the increment
+
+
 @njit(cache=True)
-def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st, ist, der,
-          n1, m1, start_tol, chord_tol, max_evals, du, pos, uo, evo):
-    """Step through `steps`; returns (periods, done, carry_mm)."""
+def _walk_tuples(curve, opts, st, ist, der, steps, pos, uo, evo):
+    """_walk for the Python side, its records as plain tuples: numba types a plain tuple
+    argument in C, a NamedTuple in Python on every call (7 against 15 us a call measured
+    under load; the feed stage calls a stepper 12,883 times for finish_nurbs.nc)."""
+    return _walk(SpanCurve(*curve), WalkOptions(*opts), st, ist, der, steps, pos, uo, evo)
+
+
+@njit(cache=True)
+def _walk(curve, opts, st, ist, der, steps, pos, uo, evo):
+    """Step the curve (SpanCurve) through `steps` with the update of opts (WalkOptions),
+    from the state st, ist, der, into pos, uo, evo; returns (periods, done, carry_mm)."""
+    method, chord_tol, u_min, u_max = opts.method, opts.chord_tol, curve.u_min, curve.u_max
+    breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
     for j in range(steps.shape[0]):
         d = steps[j]
         if st[_LEAD] > 0.0:
@@ -55,44 +79,42 @@ def _walk(method, breaks, inv_h, coef, end, u_min, u_max, polygon_mm, steps, st,
             uo[j] = u
             evo[j] = 0
             continue
-        ru = u_max - u
-        if polygon_mm <= 0.0:  # every control point equal: the curve is a point
+        if curve.polygon_mm <= 0.0:  # every control point equal: the curve is a point
             pos[j, 0], pos[j, 1], pos[j, 2] = end[0], end[1], end[2]
             uo[j] = u_max
             evo[j] = 0
             return j + 1, True, d
         started = ist[_STARTED] == 1
         span = ist[_SPAN]
+        here = (px, py, pz)
+        prev = (st[_G1], st[_S1])
+        tolerant = ChordRule(opts.n1, chord_tol, opts.max_evals, True)
         extra = 0
         if method == _RECURSIVE:
             if not started:
-                g = d * (u_max - u_min) / polygon_mm  # 000 eq. 12
-                tol = start_tol if start_tol >= 0.0 else chord_tol
-                res = recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
-                                     m1, tol, STARTUP_CAP, chord_tol >= 0.0, 0.0, 0.0)
+                g = d * (u_max - u_min) / curve.polygon_mm  # 000 eq. 12
+                tol = opts.start_tol if opts.start_tol >= 0.0 else chord_tol
+                startup = ChordRule(opts.m1, tol, STARTUP_CAP, chord_tol >= 0.0)
+                res = recursive_step(curve, startup, span, u, here, d, g, (0.0, 0.0))
             elif chord_tol >= 0.0:
                 g = d * predict_ratio(st[_G1], st[_S1], st[_G2], st[_S2], d)
-                res = recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
-                                     n1, chord_tol, max_evals, True, st[_G1], st[_S1])
+                res = recursive_step(curve, tolerant, span, u, here, d, g, prev)
             else:
                 g = eq9(d, st[_G1], st[_S1])  # 000 eq. 8
-                res = recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, g,
-                                     n1, -1.0, 0, False, 0.0, 0.0)
+                res = recursive_step(curve, ChordRule(opts.n1, -1.0, 0, False), span, u, here, d, g, (0.0, 0.0))
         elif method == _CONSTANT_DU:
-            res = constant_du_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, du)
+            res = constant_du_step(curve, span, u, here, opts.du)
         else:
             if not started:
                 poly_derivs2(breaks, inv_h, coef, span, u, der)
                 extra = 1
-            fallback = eq9(d, st[_G1], st[_S1]) if st[_S1] > 0.0 else d * (u_max - u_min) / polygon_mm
-            res = taylor_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, der,
-                              1 if method == _TAYLOR1 else 2, fallback)
+            fallback = eq9(d, st[_G1], st[_S1]) if st[_S1] > 0.0 else d * (u_max - u_min) / curve.polygon_mm
+            res = taylor_step(curve, span, u, here, d, der, 1 if method == _TAYLOR1 else 2, fallback)
             if chord_tol >= 0.0:
                 # a chord tolerance asks every period's chord within it (the feed stage: a chord that
                 # is off by a changing amount is an acceleration error); eq. 7's du is the first guess
                 extra += res[5]
-                res = recursive_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, res[0],
-                                     n1, chord_tol, max_evals, True, st[_G1], st[_S1])
+                res = recursive_step(curve, tolerant, span, u, here, d, res[0], prev)
                 if not res[6]:
                     poly_derivs2(breaks, inv_h, coef, res[7], u + res[0], der)
         g, x, y, z, s, evals, at_end, span = res
@@ -169,21 +191,13 @@ class NurbsStepper:
         if not (np.isfinite(lead_mm) and lead_mm >= 0):
             raise ValueError(f"lead_mm must be finite and >= 0, got {lead_mm}")
         _check_curve(entity)
-        p = int(entity.degree)
-        knots = np.asarray(entity.knots, dtype=np.float64)
-        points = np.asarray(entity.points, dtype=np.float64)
-        self._breaks, self._inv_h, self._coef = compile_curve(p, knots, np.asarray(entity.weights, float), points)
-        self._end = np.ascontiguousarray(points[-1])
-        self._u_min, self._u_max = float(knots[0]), float(knots[-1])
-        self._polygon_mm = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())  # 000 eq. 10
-        self._method = METHODS[method]
-        self._params = (int(n1), int(m1),
-                        -1.0 if start_tol_pct is None else start_tol_pct / 100.0,
-                        -1.0 if chord_tol_pct is None else chord_tol_pct / 100.0,
-                        int(max_evals), float(du))
+        curve = compile_curve(int(entity.degree), entity.knots, np.asarray(entity.weights, float), entity.points)
+        opts = WalkOptions(METHODS[method], int(n1), int(m1), -1.0 if start_tol_pct is None else start_tol_pct / 100.0,
+                           -1.0 if chord_tol_pct is None else chord_tol_pct / 100.0, int(max_evals), float(du))
+        self._records = (tuple(curve), tuple(opts))  # as _walk_tuples takes them
         self._st = np.zeros(_NST)
-        self._st[_U] = self._u_min
-        self._st[_PX:_PZ + 1] = points[0]
+        self._st[_U] = curve.u_min
+        self._st[_PX:_PZ + 1] = entity.points[0]
         self._st[_LEAD] = float(lead_mm)
         self._lead_check = float(lead_mm)
         self._ist = np.zeros(3, dtype=np.int64)
@@ -211,9 +225,8 @@ class NurbsStepper:
         pos = np.empty((n, 3))
         u = np.empty(n)
         evals = np.empty(n, dtype=np.int64)
-        k, done, carry = _walk(self._method, self._breaks, self._inv_h, self._coef, self._end,
-                                        self._u_min, self._u_max, self._polygon_mm, steps, self._st,
-                                        self._ist, self._der, *self._params, pos, u, evals)
+        curve, opts = self._records
+        k, done, carry = _walk_tuples(curve, opts, self._st, self._ist, self._der, steps, pos, u, evals)
         self.done = bool(done)
         return Steps(pos[:k], u[:k], evals[:k], self.done, float(carry))
 

@@ -36,10 +36,14 @@ def taylor_delta_u(ds, d1x, d1y, d1z, d2x, d2y, d2z, order):
 
 
 @njit(cache=True)
-def taylor_step(breaks, inv_h, coef, end, span, u, px, py, pz, ru, d, der, order, fallback_du):
-    """One period: update u by eq. 7 from the derivatives in der (3, 3) at u, then evaluate
-    the new point and its derivatives into der. fallback_du is used where P' vanishes.
+def taylor_step(curve, span, u, p, d, der, order, fallback_du):
+    """One period of chord d from P(u) = p on the curve (ipo.nurbs.compiled.SpanCurve):
+    update u by eq. 7 from the derivatives in der (3, 3) at u, then evaluate the new point
+    and its derivatives into der. fallback_du is used where P' vanishes.
     Returns (du, x, y, z, chord, evals, at_end, span)."""
+    breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
+    ru = curve.u_max - u
+    px, py, pz = p
     g = taylor_delta_u(d, der[1, 0], der[1, 1], der[1, 2], der[2, 0], der[2, 1], der[2, 2], order)
     if g <= 0.0:
         g = fallback_du

@@ -1,8 +1,8 @@
 """Compiled scalar NURBS evaluation for the per-period loops (one u at a time).
 
 Two forms of the same curve (000 eq. 1-4):
-- Cox-de Boor on the knot vector (find_span, basis, point, derivs2): the textbook
-  path (NURBS Book A2.1-A2.3, A4.2), used to build and to check the fast form.
+- Cox-de Boor on the knot vector (find_span, basis, point): the textbook
+  path (NURBS Book A2.1, A2.2, A4.1), used to build and to check the fast form.
 - The span polynomials: on each non-empty knot span the homogeneous curve
   A(u) = sum N_i h_i B_i, w(u) = sum N_i h_i is a polynomial of degree p, stored in
   power form in the local variable t = (u - a) / (b - a) in [0, 1]. A point then
@@ -10,10 +10,15 @@ Two forms of the same curve (000 eq. 1-4):
   this is the specialised basis evaluation the interpolators run on.
 The span-polynomial functions allocate nothing; the Cox-de Boor ones allocate small scratch
 arrays and serve checks, not the per-period loops.
+
+`compile_curve` returns the curve as one record, `SpanCurve` (a NamedTuple, which numba
+compiles as a struct): the interpolators' kernels take that (ipo.interp); the evaluation
+functions here take the arrays they read.
 """
 from __future__ import annotations
 
 from math import factorial, sqrt
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -69,70 +74,6 @@ def point(degree, knots, pw, u, span, out):
 
 
 @njit(cache=True)
-def basis_derivs2(knots, degree, span, u, ders):
-    """N and its first two derivatives into ders (3, p+1) (NURBS Book A2.3 with n = 2)."""
-    p = degree
-    ndu = np.empty((p + 1, p + 1))
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    a = np.empty((2, p + 1))
-    ndu[0, 0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = u - knots[span + 1 - j]
-        right[j] = knots[span + j] - u
-        saved = 0.0
-        for r in range(j):
-            ndu[j, r] = right[r + 1] + left[j - r]
-            temp = ndu[r, j - 1] / ndu[j, r]
-            ndu[r, j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j, j] = saved
-    for k in range(3):
-        for r in range(p + 1):
-            ders[k, r] = 0.0
-    for r in range(p + 1):
-        ders[0, r] = ndu[r, p]
-    for r in range(p + 1):
-        s1, s2 = 0, 1
-        a[0, 0] = 1.0
-        for k in range(1, min(2, p) + 1):
-            d = 0.0
-            rk, pk = r - k, p - k
-            if r >= k:
-                a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
-                d = a[s2, 0] * ndu[rk, pk]
-            j1 = 1 if rk >= -1 else -rk
-            j2 = k - 1 if r - 1 <= pk else p - r
-            for j in range(j1, j2 + 1):
-                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
-                d += a[s2, j] * ndu[rk + j, pk]
-            if r <= pk:
-                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
-                d += a[s2, k] * ndu[r, pk]
-            ders[k, r] = d
-            s1, s2 = s2, s1
-    factor = float(p)
-    for k in range(1, 3):
-        for r in range(p + 1):
-            ders[k, r] *= factor
-        factor *= p - k
-
-
-@njit(cache=True)
-def derivs2(degree, knots, pw, u, span, out):
-    """C(u), C'(u), C''(u) into out (3, 3) (NURBS Book A4.2, eq. 4.8)."""
-    ders = np.empty((3, degree + 1))
-    basis_derivs2(knots, degree, span, u, ders)
-    aw = np.zeros((3, 4))
-    for k in range(3):
-        for r in range(degree + 1):
-            i = span - degree + r
-            for c in range(4):
-                aw[k, c] += ders[k, r] * pw[i, c]
-    _rational2(aw, out)
-
-
-@njit(cache=True)
 def _rational2(aw, out):
     """Rational C, C', C'' from the homogeneous A, A', A'' and w, w', w'' (rows of aw)."""
     w0, w1, w2 = aw[0, 3], aw[1, 3], aw[2, 3]
@@ -144,11 +85,22 @@ def _rational2(aw, out):
         out[2, c] = (aw[2, c] - 2.0 * w1 * c1 - w2 * c0) / w0
 
 
-def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: np.ndarray):
-    """Span polynomials of a clamped NURBS: (breaks (S+1), inv_h (S), coef (S, p+1, 4)).
+class SpanCurve(NamedTuple):
+    """A clamped NURBS as the per-period kernels read it (compile_curve)."""
 
-    coef[i, k] is the k-th power-form coefficient in t of (h*B, h) on span i."""
+    breaks: np.ndarray  # (S+1) the ends of the non-empty knot spans
+    inv_h: np.ndarray  # (S) 1 / span width
+    coef: np.ndarray  # (S, p+1, 4): [i, k] the k-th power-form coefficient in t of (h*B, h) on span i
+    end: np.ndarray  # (3) the last control point, where the curve ends
+    u_min: float
+    u_max: float
+    polygon_mm: float  # length of the control polygon (000 eq. 10)
+
+
+def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: np.ndarray) -> SpanCurve:
+    """The span polynomials of a clamped NURBS, with its end and parameter range."""
     knots = np.asarray(knots, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64)
     p = int(degree)
     breaks = np.unique(knots[p:len(knots) - p])
     a, b = breaks[:-1], breaks[1:]
@@ -160,7 +112,8 @@ def compile_curve(degree: int, knots: np.ndarray, weights: np.ndarray, points: n
     h = b - a
     scale = np.array([h**k / factorial(k) for k in range(p + 1)]).T  # (S, p+1)
     coef = np.ascontiguousarray(hom * scale[:, :, None])
-    return breaks, 1.0 / h, coef
+    return SpanCurve(breaks, 1.0 / h, coef, np.ascontiguousarray(points[-1]), float(knots[0]), float(knots[-1]),
+                     float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()))
 
 
 @njit(cache=True)

@@ -7,5 +7,5 @@
 - `iges`: IGES 5.3 entities 128 and 126, written and read.
 - `toolpath`: ball-end finishing passes written as G06.2 groups.
 
-May import: ipo.nurbs, ipo.fit, numpy, numba.
+May import: ipo.errors, ipo.nurbs, ipo.fit, numpy, numba.
 """

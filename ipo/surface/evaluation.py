@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import SKIN, SURFACE_DATA, IpoError
 from ipo.nurbs.kernel import basis_derivs, find_span
 
 
@@ -27,11 +28,11 @@ class RationalSurface:
     def __post_init__(self):
         n_u, n_v = self.weights.shape
         if self.points.shape != (n_u, n_v, 3):
-            raise ValueError(f"control net {self.points.shape} does not match weights {self.weights.shape}")
+            raise IpoError(SURFACE_DATA, f"control net {self.points.shape} does not match weights {self.weights.shape}")
         if len(self.knots_u) != n_u + self.degree_u + 1 or len(self.knots_v) != n_v + self.degree_v + 1:
-            raise ValueError("knot vector lengths do not match the control net and degrees")
+            raise IpoError(SURFACE_DATA, "knot vector lengths do not match the control net and degrees")
         if not np.all(self.weights > 0):
-            raise ValueError("surface weights must all be > 0")
+            raise IpoError(SURFACE_DATA, "surface weights must all be > 0")
 
     @property
     def u_range(self) -> tuple[float, float]:
@@ -47,8 +48,11 @@ class RationalSurface:
         return np.concatenate([self.points * self.weights[..., None], self.weights[..., None]], axis=2)
 
 
-class NonPositiveWeight(ValueError):
-    """A control net whose weights are not all > 0."""
+class NonPositiveWeight(IpoError):
+    """A control net whose weights are not all > 0 (code E-IPO-SKIN: skinning made it)."""
+
+    def __init__(self, message: str):
+        super().__init__(SKIN, message)
 
 
 def from_homogeneous(degree_u: int, degree_v: int, knots_u, knots_v, pw: np.ndarray) -> RationalSurface:
@@ -93,8 +97,8 @@ def unit_normals(surf: RationalSurface, u, v) -> tuple[np.ndarray, np.ndarray]:
     bad = length <= 1e-12 * np.maximum(np.linalg.norm(s_u, axis=1) * np.linalg.norm(s_v, axis=1), 1e-300)
     if bad.any():
         k = int(np.argmax(bad))
-        raise ValueError(f"the surface has no normal at u={np.atleast_1d(u)[k]:.6g}, "
-                         f"v={np.atleast_1d(v)[k]:.6g} (degenerate parametrisation)")
+        raise IpoError(SURFACE_DATA, f"the surface has no normal at u={np.atleast_1d(u)[k]:.6g}, "
+                                     f"v={np.atleast_1d(v)[k]:.6g} (degenerate parametrisation)")
     return s, n / length[:, None]
 
 

@@ -14,13 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
+from ipo.errors import IGES, IpoError
 from ipo.surface.evaluation import RationalSurface
 
 P_DATA_COLS = 64
 
 
-class IgesError(ValueError):
-    """A file this reader cannot take; the message names the line."""
+class IgesError(IpoError):
+    """A file this reader cannot take, or a surface the writer cannot put in one (code E-IPO-IGES);
+    the message names the line."""
+
+    def __init__(self, message: str):
+        super().__init__(IGES, message)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -51,7 +56,7 @@ def _records(tokens: list[str], width: int) -> list[str]:
     lines, cur = [], ""
     for tok in tokens:
         if len(tok) > width:
-            raise ValueError(f"IGES parameter too long for a record: {tok[:20]}...")
+            raise IgesError(f"IGES parameter too long for a record: {tok[:20]}...")
         if len(cur) + len(tok) > width:
             lines.append(cur)
             cur = ""

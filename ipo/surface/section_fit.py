@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import FIT_DATA, FIT_SETTINGS, FIT_TOLERANCE, IpoError
 from ipo.fit.rational import (RationalFit, SpanPolynomials, basis_matrix, chord_params, correct_params,
                               evaluate, uniform_knots)
 
@@ -114,7 +115,7 @@ def fit_shared(sections: list[np.ndarray], n_ctrl: int, degree: int = 3, *, rati
     returns the best iterate."""
     for h, q in enumerate(sections):
         if len(q) < n_ctrl:
-            raise ValueError(f"section {h + 1} has {len(q)} points, fewer than {n_ctrl} control points")
+            raise IpoError(FIT_DATA, f"section {h + 1} has {len(q)} points, fewer than {n_ctrl} control points")
     knots = uniform_knots(n_ctrl, degree)
     us = [chord_params(q, knots[-1]) for q in sections]
     w = np.ones(n_ctrl)
@@ -160,19 +161,19 @@ def fit_sections(sections: list[np.ndarray], *, degree: int = 3, tol_mm: float |
     count whose fits are all within `tol_mm`, counting up from degree + 1 (the error is not
     monotone in the count, so a bisection could skip the smallest)."""
     if degree < 1:
-        raise ValueError(f"degree must be >= 1, got {degree}")
+        raise IpoError(FIT_SETTINGS, f"degree must be >= 1, got {degree}")
     if not sections:
-        raise ValueError("no sections to fit")
+        raise IpoError(FIT_DATA, "no sections to fit")
     fewest = min(len(q) for q in sections)
     if n_ctrl is not None:
         if not degree + 1 <= n_ctrl <= fewest:
-            raise ValueError(f"control-point count {n_ctrl} must be in {degree + 1}..{fewest} "
-                             f"(order {degree + 1}; the smallest section has {fewest} points)")
+            raise IpoError(FIT_SETTINGS, f"control-point count {n_ctrl} must be in {degree + 1}..{fewest} "
+                                         f"(order {degree + 1}; the smallest section has {fewest} points)")
         return fit_shared(sections, n_ctrl, degree, max_iter=max_iter)
     if tol_mm is None or not tol_mm > 0:
-        raise ValueError(f"give a tolerance > 0 mm or a control-point count (tol_mm={tol_mm})")
+        raise IpoError(FIT_SETTINGS, f"give a tolerance > 0 mm or a control-point count (tol_mm={tol_mm})")
     if fewest < degree + 1:
-        raise ValueError(f"a section has {fewest} points; order {degree + 1} needs at least {degree + 1}")
+        raise IpoError(FIT_DATA, f"a section has {fewest} points; order {degree + 1} needs at least {degree + 1}")
     worst = np.inf
     for m in range(degree + 1, fewest + 1):
         for rational in (False, True):
@@ -180,8 +181,8 @@ def fit_sections(sections: list[np.ndarray], *, degree: int = 3, tol_mm: float |
             if trial.max_error_mm.max() <= tol_mm:
                 return trial
             worst = min(worst, float(trial.max_error_mm.max()))
-    raise ValueError(f"no control-point count up to {fewest} fits every section within {tol_mm} mm "
-                     f"(best worst-section error {worst:.4g} mm)")
+    raise IpoError(FIT_TOLERANCE, f"no control-point count up to {fewest} fits every section within {tol_mm} mm "
+                                  f"(best worst-section error {worst:.4g} mm)")
 
 
 def section_error(fit: RationalFit, q: np.ndarray) -> float:

@@ -16,12 +16,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ipo.errors import SURFACE_POINTS, IpoError
+
 _SPLIT = re.compile(r"\s*[,;]\s*|\s+")
 MAX_COORDINATE_MM = 1e5
 
 
-class SectionsError(ValueError):
-    """Bad digitised-point input; the message names the file and line."""
+class SectionsError(IpoError):
+    """Bad digitised-point input (code E-IPO-SURFACE-POINTS); the message names the file and line."""
+
+    def __init__(self, message: str):
+        super().__init__(SURFACE_POINTS, message)
 
 
 @dataclass(frozen=True, slots=True)

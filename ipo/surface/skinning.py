@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import FIT_SETTINGS, SKIN, IpoError
 from ipo.fit.rational import RationalFit, basis_matrix
 from ipo.surface.evaluation import NonPositiveWeight, RationalSurface, closest_points, from_homogeneous
 
@@ -25,7 +26,7 @@ def chord_v(net: np.ndarray, v_max: float) -> np.ndarray:
     steps = np.linalg.norm(np.diff(net, axis=1), axis=2)  # (n_u, l)
     total = steps.sum(axis=1)
     if np.any(total <= 0):
-        raise ValueError("two sections coincide: cannot skin across them")
+        raise IpoError(SKIN, "two sections coincide: cannot skin across them")
     cum = np.concatenate([np.zeros((len(net), 1)), np.cumsum(steps, axis=1)], axis=1) / total[:, None]
     return v_max * cum.mean(axis=0)
 
@@ -45,11 +46,11 @@ def averaged_knots(v_h: np.ndarray, degree: int) -> np.ndarray:
 def skin(fits: list[RationalFit], degree_v: int | None = None) -> tuple[RationalSurface, np.ndarray]:
     """The skinned surface through compatible section curves and the sections' v parameters."""  # 001 eq. 15
     if len(fits) < 2:
-        raise ValueError(f"skinning needs at least 2 sections, got {len(fits)}")
+        raise IpoError(SKIN, f"skinning needs at least 2 sections, got {len(fits)}")
     first = fits[0]
     for h, f in enumerate(fits[1:], 1):
         if f.degree != first.degree or not np.array_equal(f.knots, first.knots):
-            raise ValueError(f"section {h + 1} is not compatible with section 1 (degree or knots differ)")
+            raise IpoError(SKIN, f"section {h + 1} is not compatible with section 1 (degree or knots differ)")
     n_sec = len(fits)
     q = min(first.degree if degree_v is None else degree_v, n_sec - 1)
     # each section's weights are only defined up to a factor: a geometric mean of 1 keeps them
@@ -73,14 +74,14 @@ def merge_v(s1: RationalSurface, s2: RationalSurface, continuity: str = "C1") ->
     coordinates, to P_l + (d2/d1)(P_l - P_{l-1}) with d1, d2 the knot spans either side of the
     joint: 001 eq. 18 (2 P_l - P_{l-1}) where the spans are equal, as on its uniform knots."""
     if continuity not in ("C0", "C1"):
-        raise ValueError(f"continuity must be C0 or C1, got {continuity!r}")
+        raise IpoError(FIT_SETTINGS, f"continuity must be C0 or C1, got {continuity!r}")
     if (s1.degree_u, s1.degree_v) != (s2.degree_u, s2.degree_v) or not np.array_equal(s1.knots_u, s2.knots_u):
-        raise ValueError("patches to merge need the same degrees and u knot vector")
+        raise IpoError(SKIN, "patches to merge need the same degrees and u knot vector")
     q = s1.degree_v
     a, b = s1.homogeneous, s2.homogeneous.copy()
     gap = np.max(np.linalg.norm(s1.points[:, -1] - s2.points[:, 0], axis=1))
     if gap > 1e-9 * max(np.ptp(s1.points.reshape(-1, 3), axis=0).max(), 1.0):
-        raise ValueError(f"patches do not share a boundary (control points {gap:.3g} mm apart)")
+        raise IpoError(SKIN, f"patches do not share a boundary (control points {gap:.3g} mm apart)")
     b[:, 0] = a[:, -1]  # 001 eq. 17
     if continuity == "C1":
         span1 = s1.knots_v[-1] - s1.knots_v[-q - 2]
@@ -95,7 +96,7 @@ def merge_v(s1: RationalSurface, s2: RationalSurface, continuity: str = "C1") ->
 def patch_groups(n_sections: int, per_patch: int) -> list[tuple[int, int]]:
     """(first, last) section index of each patch; neighbours share their boundary section."""
     if per_patch < 2:
-        raise ValueError(f"a patch needs at least 2 sections, got {per_patch}")
+        raise IpoError(FIT_SETTINGS, f"a patch needs at least 2 sections, got {per_patch}")
     n_patches = max(1, int(np.ceil((n_sections - 1) / (per_patch - 1))))
     bounds = np.linspace(0, n_sections - 1, n_patches + 1).round().astype(int)
     return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
@@ -115,7 +116,7 @@ def skin_patches(fits: list[RationalFit], per_patch: int | None = None, continui
     interpolated weights would not all stay positive, the next lower degree is used (degree 1
     blends neighbouring sections' homogeneous points convexly, so its weights are positive)."""
     if len(fits) < 2:
-        raise ValueError(f"a surface is skinned through two or more sections; the points hold {len(fits)}")
+        raise IpoError(SKIN, f"a surface is skinned through two or more sections; the points hold {len(fits)}")
     groups = [(0, len(fits) - 1)] if per_patch is None else patch_groups(len(fits), per_patch)
     top = min(fits[0].degree, min(b - a for a, b in groups))
     for degree_v in range(top, 0, -1):

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import TOOLPATH_SETTINGS, TOOLPATH_SURFACE, IpoError
 from ipo.fit.tolerance import FitSettings, fewest_ctrl
 from ipo.fit.rational import RationalFit, evaluate
 from ipo.surface.evaluation import (RationalSurface, nearest_distance, split_at_c0, surface_derivs, surface_points, swap_uv,
@@ -55,16 +56,17 @@ class ToolpathSettings:
 
     def check(self) -> None:
         if not self.ball_mm > 0:
-            raise ValueError(f"ball radius must be > 0 mm, got {self.ball_mm}")
+            raise IpoError(TOOLPATH_SETTINGS, f"ball radius must be > 0 mm, got {self.ball_mm}")
         if not 0 < self.pick_mm < 2 * self.ball_mm:
-            raise ValueError(f"pick feed must be > 0 and below the ball diameter {2 * self.ball_mm} mm, "
-                             f"got {self.pick_mm}")
+            raise IpoError(TOOLPATH_SETTINGS,
+                           f"pick feed must be > 0 and below the ball diameter {2 * self.ball_mm} mm, "
+                           f"got {self.pick_mm}")
         if not self.tol_mm > 0:
-            raise ValueError(f"tolerance must be > 0 mm, got {self.tol_mm}")
+            raise IpoError(TOOLPATH_SETTINGS, f"tolerance must be > 0 mm, got {self.tol_mm}")
         if not self.feed_mm_min > 0 or not self.spindle_rpm > 0:
-            raise ValueError("feed and spindle speed must be > 0")
+            raise IpoError(TOOLPATH_SETTINGS, "feed and spindle speed must be > 0")
         if self.along not in ("u", "v"):
-            raise ValueError(f"passes run along 'u' or 'v', got {self.along!r}")
+            raise IpoError(TOOLPATH_SETTINGS, f"passes run along 'u' or 'v', got {self.along!r}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,8 +106,9 @@ def normal_sign(surf: RationalSurface) -> float:
     nz = sign * n[:, 2]
     if nz.min() < 0:
         k = int(np.argmin(nz))
-        raise ValueError(f"the surface faces away from a tool coming from +Z near "
-                         f"({s[k, 0]:.3f}, {s[k, 1]:.3f}, {s[k, 2]:.3f}): undercut, not machinable with 3 axes")
+        raise IpoError(TOOLPATH_SURFACE,
+                       f"the surface faces away from a tool coming from +Z near "
+                       f"({s[k, 0]:.3f}, {s[k, 1]:.3f}, {s[k, 2]:.3f}): undercut, not machinable with 3 axes")
     return sign
 
 
@@ -130,9 +133,10 @@ def _samples(surf: RationalSurface, v: float, r: float, sign: float, tol_mm: flo
     fold = np.einsum("ij,ij->i", np.diff(c, axis=0), np.diff(s, axis=0)) <= 0
     if fold.any():
         k = int(np.argmax(fold))
-        raise ValueError(f"the tool-centre path folds back (gouge) near ({s[k, 0]:.3f}, {s[k, 1]:.3f}, "
-                         f"{s[k, 2]:.3f}): the ball (r = {r} mm) is larger than the surface's concave radius of "
-                         "curvature there, or the surface has a concave crease (a C0 patch joint)")
+        raise IpoError(TOOLPATH_SURFACE,
+                       f"the tool-centre path folds back (gouge) near ({s[k, 0]:.3f}, {s[k, 1]:.3f}, "
+                       f"{s[k, 2]:.3f}): the ball (r = {r} mm) is larger than the surface's concave radius of "
+                       "curvature there, or the surface has a concave crease (a C0 patch joint)")
     return u, c
 
 
@@ -159,7 +163,7 @@ def _fit_span(patches, v, r, u, c, s: ToolpathSettings) -> tuple[list[RationalFi
         if dev <= s.tol_mm:
             return [fit], dev
     if len(c) < 4 * (s.degree + 2):
-        raise ValueError(f"a pass at v = {v:.6g} cannot be fitted within {s.tol_mm} mm")
+        raise IpoError(TOOLPATH_SURFACE, f"a pass at v = {v:.6g} cannot be fitted within {s.tol_mm} mm")
     mid = len(c) // 2
     left, dev_l = _fit_span(patches, v, r, u[:mid + 1], c[:mid + 1], s)
     right, dev_r = _fit_span(patches, v, r, u[mid:], c[mid:], s)
@@ -176,8 +180,8 @@ def surface_patches(surf: RationalSurface) -> list[RationalSurface]:
         gap = np.linalg.norm(surface_points(a, np.full(len(vv), u_c), vv)
                              - surface_points(b, np.full(len(vv), u_c), vv), axis=1).max()
         if gap > 1e-9 * size:
-            raise ValueError(f"the surface is not continuous across u = {u_c:.6g}: its sides are up to "
-                             f"{gap:.3g} mm apart there")
+            raise IpoError(TOOLPATH_SURFACE, f"the surface is not continuous across u = {u_c:.6g}: its sides are up to "
+                                             f"{gap:.3g} mm apart there")
     return patches
 
 
@@ -220,10 +224,11 @@ def _join_cost(r: float, n_l: np.ndarray, n_r: np.ndarray) -> float:
 def _concave_error(point: np.ndarray, n_l: np.ndarray, n_r: np.ndarray, cost: float, tol_mm: float):
     x, y, z = point
     angle = np.degrees(np.arccos(np.clip(n_l @ n_r, -1.0, 1.0)))
-    return ValueError(f"concave crease (C0 joint) near ({x:.3f}, {y:.3f}, {z:.3f}): the surface turns by "
-                      f"{angle:.2f} deg towards the tool there, so a ball touching one side cuts up to "
-                      f"{cost * 1e3:.2f} um into the other, over {CONCAVE_FRACTION * tol_mm * 1e3:.2f} um "
-                      f"({CONCAVE_FRACTION:g} of the tolerance); not handled (machine the sides separately)")
+    return IpoError(TOOLPATH_SURFACE,
+                    f"concave crease (C0 joint) near ({x:.3f}, {y:.3f}, {z:.3f}): the surface turns by "
+                    f"{angle:.2f} deg towards the tool there, so a ball touching one side cuts up to "
+                    f"{cost * 1e3:.2f} um into the other, over {CONCAVE_FRACTION * tol_mm * 1e3:.2f} um "
+                    f"({CONCAVE_FRACTION:g} of the tolerance); not handled (machine the sides separately)")
 
 
 def crease_at(left: RationalSurface, right: RationalSurface, v: float, r: float, sign: float,
@@ -265,10 +270,11 @@ def _refuse_gouge(grid: list[RationalSurface], u: np.ndarray, v: float, c: np.nd
     k = int(np.argmin(d))
     if d[k] < s.ball_mm - CONCAVE_FRACTION * s.tol_mm:
         x, y, z = c[k]
-        raise ValueError(f"concave crease (C0 joint): the ball centred at ({x:.3f}, {y:.3f}, {z:.3f}) cuts "
-                         f"{(s.ball_mm - d[k]) * 1e3:.2f} um into the surface beyond the joint, over "
-                         f"{CONCAVE_FRACTION * s.tol_mm * 1e3:.2f} um ({CONCAVE_FRACTION:g} of the tolerance); "
-                         "not handled (machine the sides separately)")
+        raise IpoError(TOOLPATH_SURFACE,
+                       f"concave crease (C0 joint): the ball centred at ({x:.3f}, {y:.3f}, {z:.3f}) cuts "
+                       f"{(s.ball_mm - d[k]) * 1e3:.2f} um into the surface beyond the joint, over "
+                       f"{CONCAVE_FRACTION * s.tol_mm * 1e3:.2f} um ({CONCAVE_FRACTION:g} of the tolerance); "
+                       "not handled (machine the sides separately)")
 
 
 def _plan_pass(patches: list[RationalSurface], grid: list[RationalSurface], v: float, sign: float,

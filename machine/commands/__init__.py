@@ -28,10 +28,27 @@ def load_machine(path: str | None):
         raise click.ClickException(f"machine file {path}: {err.strerror or err}") from None
 
 
+def refusal(err, where: str) -> click.ClickException:
+    """An ipo.errors.IpoError refusing the user's input, as the commands report it (exit 1):
+    `WHERE: error[CODE]: message`, or the message's own `file:line:` where it starts with WHERE."""
+    location, sep, text = err.message.partition(": ")
+    if not (sep and location.startswith(where)):
+        location, text = where, err.message
+    return click.ClickException(f"{location}: error[{err.code}]: {text}")
+
+
+def linuxcnc_ini_option(fn):
+    return click.option("--linuxcnc-ini", "linuxcnc_ini", type=INPUT_FILE,
+                        help="The machine's LinuxCNC INI file for the LinuxCNC twin: its [AXIS_*] limits, "
+                             "[TRAJ] keys and servo period (default: the machine file's [linuxcnc] ini, "
+                             "else its axes).")(fn)
+
+
 def planner_options(fn):
-    """--planner and --grbl-settings, shared by the commands that run a program."""
+    """--planner, --grbl-settings and --linuxcnc-ini, shared by the commands that run a program."""
     from ipo.config import PLANNERS
 
+    fn = linuxcnc_ini_option(fn)
     fn = click.option("--grbl-settings", "grbl_settings", type=INPUT_FILE,
                       help="grbl's `$$` printout (`$110=6000.000` lines) for the grbl twin "
                            "(default: the machine file's [grbl] settings, else its axes).")(fn)
@@ -40,18 +57,25 @@ def planner_options(fn):
                              "(default: the machine file's `planner`).")(fn)
 
 
-def apply_planner(config, planner: str | None, grbl_settings: str | None):
-    """The machine configuration with --planner and --grbl-settings applied (a bad dump: usage error)."""
+def apply_planner(config, planner: str | None, grbl_settings: str | None, linuxcnc_ini: str | None = None):
+    """The machine configuration with --planner, --grbl-settings and --linuxcnc-ini applied (a bad
+    dump or INI file: usage error naming the line or the key)."""
     from ipo.grbl_settings import GrblSettingsError, read_dump
+    from ipo.linuxcnc_ini import IniError, load_ini
     from machine.planners import with_planner
 
-    settings = None
+    settings = ini = None
     if grbl_settings is not None:
         try:
             settings = read_dump(grbl_settings)
         except GrblSettingsError as err:
             raise click.BadParameter(str(err), param_hint="--grbl-settings") from None
-    return with_planner(config, planner, settings)
+    if linuxcnc_ini is not None:
+        try:
+            ini = load_ini(linuxcnc_ini)
+        except IniError as err:
+            raise click.BadParameter(str(err), param_hint="--linuxcnc-ini") from None
+    return with_planner(config, planner, settings, ini)
 
 
 class OutputPath(click.ParamType):

@@ -23,7 +23,7 @@ import click
 import numpy as np
 
 from ipo.config import PLANNERS
-from machine.commands import INPUT_FILE, OutputPath, apply_planner, load_machine
+from machine.commands import INPUT_FILE, OutputPath, apply_planner, linuxcnc_ini_option, load_machine
 
 ROWS = [("planner", "planner", "{}"), ("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
@@ -252,9 +252,10 @@ def _plot(res: dict, out: str) -> None:
                    "file's `planner`).")
 @click.option("--grbl-settings", "grbl_settings", type=INPUT_FILE,
               help="grbl's `$$` printout for the grbl twin (default: the machine file's [grbl] settings).")
+@linuxcnc_ini_option
 def command(a: str, b: str, machine: str | None, plot_out: str | None, report_out: str | None,
             stock_text: str | None, tool: int | None, grid_um: float | None, surface_plot: str | None,
-            as_json: bool, planners: tuple[str, ...], grbl_settings: str | None) -> None:
+            as_json: bool, planners: tuple[str, ...], grbl_settings: str | None, linuxcnc_ini: str | None) -> None:
     """Run two programs (or one on two controllers) and compare them (002 Table 1)."""
     from ipo.config import ConfigError
     from machine.controller import ProgramRejected
@@ -267,8 +268,8 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, report_ou
         raise click.BadParameter("give it once (both runs) or twice (A, then B)", param_hint="--planner")
     cut = cut_options(stock_text, tool, grid_um, surface_plot)
     config = load_machine(machine)
-    configs = [apply_planner(config, p, grbl_settings) for p in (planners * 2 if len(planners) == 1 else planners
-                                                                 or (None, None))]
+    configs = [apply_planner(config, p, grbl_settings, linuxcnc_ini)
+               for p in (planners * 2 if len(planners) == 1 else planners or (None, None))]
     try:
         res = compare_programs(a, b, machine, cut, configs)
     except (StockError, ToolError) as err:

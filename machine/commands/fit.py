@@ -15,7 +15,7 @@ import sys
 
 import click
 
-from machine.commands import INPUT_FILE, OutputPath
+from machine.commands import INPUT_FILE, OutputPath, refusal
 
 
 def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
@@ -68,6 +68,7 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
+    from ipo.errors import IpoError
     from ipo.fit.convert import convert_text
 
     if not tol_mm > 0:
@@ -92,6 +93,8 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)
+    except IpoError as err:
+        raise refusal(err, src) from None
     with open(out, "w", encoding="utf-8", newline="") as f:
         f.write(result)
     click.echo(f"{src} -> {out}")

@@ -170,14 +170,15 @@ def _write_pictures(digest, plot_file, report_file, program, result, machine_fil
               help="Write the machined surface: .npz (x_mm, y_mm, z_mm, gouge_line), .stl or .png; repeatable.")
 @planner_options
 def command(file, machine_file, period_ms, method, feed_override, trace_file, plot_file, report_file, realtime,
-            optional_stop, as_json, stock_text, tool, grid_um, teeth, surface_files, planner, grbl_settings):
+            optional_stop, as_json, stock_text, tool, grid_um, teeth, surface_files, planner, grbl_settings,
+            linuxcnc_ini):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
     from machine.controller import Controller, ProgramRejected
     from machine.report.digest import DigestSink
     from machine.trace import open_writer
     from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
 
-    config = apply_planner(load_machine(machine_file), planner, grbl_settings)
+    config = apply_planner(load_machine(machine_file), planner, grbl_settings, linuxcnc_ini)
     cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth)
     if period_ms is not None:
         from ipo.config import ConfigError, with_period

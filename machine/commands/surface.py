@@ -12,7 +12,7 @@ import time
 
 import click
 
-from machine.commands import INPUT_FILE, OutputPath
+from machine.commands import INPUT_FILE, OutputPath, refusal
 
 
 @click.command("surface")
@@ -30,9 +30,10 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
     """Fit digitised cross-sections, skin them into a rational surface and write IGES."""
     import numpy as np
 
+    from ipo.errors import IpoError
     from ipo.surface.iges import RationalCurve, write_iges
     from ipo.surface.section_fit import fit_sections
-    from ipo.surface.sections import SectionsError, orient_like_first, read_sections
+    from ipo.surface.sections import orient_like_first, read_sections
     from ipo.surface.skinning import deviation_from_points, skin_patches
 
     if not tol_mm > 0:
@@ -49,8 +50,8 @@ def command(points, out, tol_mm, order, n_ctrl, patch_sections, continuity) -> N
         dev = deviation_from_points(skinned.surface, fits.fits, secs.points, skinned.section_v)
         curves = [RationalCurve(f.degree, f.knots, f.weights, f.points) for f in fits.fits]
         write_iges(out, [skinned.surface], curves, description=f"vcnc surface from {os.path.basename(points)}")
-    except (SectionsError, ValueError, np.linalg.LinAlgError) as err:
-        raise click.ClickException(f"{points}: {err}" if not str(err).startswith(str(points)) else str(err)) from None
+    except IpoError as err:
+        raise refusal(err, points) from None
     surf = skinned.surface
     n_pts = sum(len(q) for q in secs.points)
     kind = "shared rational weights" if fits.rational else "weights 1 (a polynomial fit met the tolerance)"

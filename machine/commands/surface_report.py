@@ -5,7 +5,7 @@ import json
 
 import click
 
-from machine.commands import INPUT_FILE, OutputPath
+from machine.commands import INPUT_FILE, OutputPath, refusal
 
 
 @click.command("surface-report")
@@ -30,11 +30,13 @@ def command(surface_file, reference, feed_axis, pick_mm, gouge_tol_um, plot_file
         raise click.ClickException(str(err)) from None
     ref = None
     if reference is not None:
-        from ipo.surface.iges import IgesError
+        from ipo.errors import IpoError
 
         try:
             ref = iges_reference(surface, reference)
-        except (IgesError, OSError) as err:
+        except IpoError as err:
+            raise refusal(err, reference) from None
+        except OSError as err:
             raise click.ClickException(f"{reference}: {err}") from None
     figs = surface_figures(surface, reference=ref, feed_axis=feed_axis, pick_mm=pick_mm,
                            gouge_tol_mm=gouge_tol_um / 1000.0)

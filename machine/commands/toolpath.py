@@ -13,7 +13,7 @@ import time
 
 import click
 
-from machine.commands import INPUT_FILE, OutputPath
+from machine.commands import INPUT_FILE, OutputPath, refusal
 
 
 @click.command("toolpath")
@@ -29,7 +29,8 @@ from machine.commands import INPUT_FILE, OutputPath
               help="Parameter direction of the passes (u: along the sections).")
 def command(surface, out, ball_mm, pick_mm, feed_mm_min, spindle_rpm, tol_mm, along) -> None:
     """Write ball-end finishing passes over an IGES surface as G06.2 groups."""
-    from ipo.surface.iges import IgesError, read_surfaces
+    from ipo.errors import IpoError
+    from ipo.surface.iges import read_surfaces
     from ipo.surface.toolpath import ToolpathSettings, plan_passes, program_text
 
     settings = ToolpathSettings(ball_mm, pick_mm, tol_mm, feed_mm_min, spindle_rpm, along)
@@ -40,8 +41,8 @@ def command(surface, out, ball_mm, pick_mm, feed_mm_min, spindle_rpm, tol_mm, al
         t0 = time.perf_counter()
         passes = plan_passes(surfaces[0], settings)
         elapsed = time.perf_counter() - t0
-    except (IgesError, ValueError) as err:
-        raise click.ClickException(str(err)) from None
+    except IpoError as err:
+        raise refusal(err, surface) from None
     text = program_text(passes, settings, os.path.basename(surface))
     with open(out, "w", encoding="ascii", newline="\n") as f:
         f.write(text)

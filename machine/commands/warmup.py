@@ -10,8 +10,10 @@ a user's first `vcnc run` loads cached kernels instead of compiling them (measur
 bench/run.py and docs/throughput.md).
 
 The warm-up runs a short built-in program through the same check → plan → interpolate → drive
-path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method),
-with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses.
+path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method,
+then once on each controller twin),
+with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses;
+then it interprets a few hundred plain moves, for the interpreter's own kernels (ipr.plain_runs).
 """
 from __future__ import annotations
 
@@ -51,7 +53,11 @@ def command(machine_file):
     """Compile the numba kernels of a run now (once per install), so the first run does not wait."""
     from numba.core import event
 
-    from ipo.config import METHODS
+    import dataclasses
+
+    from ipo.config import METHODS, PLANNERS
+    from ipr import parse_text
+    from ipr.interpreter import SCAN_LINES
     from machine.controller import Controller
     from machine.report.digest import DigestSink
 
@@ -63,13 +69,19 @@ def command(machine_file):
     with tempfile.TemporaryDirectory() as scratch, event.install_listener("numba:compile", listener):
         path = Path(scratch) / "warmup.nc"
         path.write_text(WARMUP_PROGRAM)
-        for method in METHODS:
-            controller = Controller(config, method=method)
+        # each interpolator on the machine file's planner, then once on each other planner (the twins)
+        runs = [(config, m) for m in METHODS] + [(dataclasses.replace(config, planner=p), METHODS[0])
+                                                  for p in PLANNERS if p != config.planner]
+        for cfg, method in runs:
+            controller = Controller(cfg, method=method)
             digest = DigestSink(controller.limits.meta(), servo=config.servo.model != "none")
             controller.sinks = [digest]  # what `vcnc run --plot/--report` adds
             result = controller.run(controller.check(path))
             digest.finish()
             if result.state != "completed":
-                raise click.ClickException(f"warm-up run {method}: {result.state}: {result.fault}")
+                raise click.ClickException(f"warm-up run {cfg.planner} {method}: {result.state}: {result.fault}")
+        # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
+        # program as short as the one above does not reach
+        parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
     click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
                if compiled else "vcnc warmup: every kernel was already compiled (cached)")

@@ -19,10 +19,6 @@ from machine.grbl.words import Format
 G53_WORD = 53.0
 
 
-class JobError(ValueError):
-    """The program cannot run on this grbl build as it stands; nothing was sent."""
-
-
 @dataclass
 class Job:
     lines: list[StreamLine]

@@ -38,9 +38,7 @@ class Ledger:
         self.journal = journal  # machine.grbl.journal.Journal: every event also goes to disk
         self._state = array("B")
         self._sends = array("B")
-        self._error = {}
         self._waiting: deque[tuple[int, int]] = deque()  # (seq, bytes) sent, not yet answered
-        self.setup_sent = self.setup_ok = 0  # the resume preamble's own lines (seq 0)
         self.resume_from: int | None = None
         self.connection_lost = False
 
@@ -54,9 +52,7 @@ class Ledger:
         return i
 
     def sent(self, seq: int, n_bytes: int) -> None:
-        if seq == 0:
-            self.setup_sent += 1
-        else:
+        if seq:  # seq 0: the resume preamble's own lines, answered but not in the ledger
             i = self._grow(seq)
             if self._sends[i]:
                 raise LedgerError(f"line {seq} would be sent a second time")
@@ -73,12 +69,8 @@ class Ledger:
         if not self._waiting:
             raise LedgerError(f"grbl answered {'ok' if ok else f'error:{code}'} with no line waiting")
         seq, n = self._waiting.popleft()
-        if seq == 0:
-            self.setup_ok += ok
-        else:
+        if seq:
             self._state[seq - self.first] = OK if ok else ERROR
-            if not ok:
-                self._error[seq] = code
             if self.journal:
                 self.journal.event(f"A {seq} {'ok' if ok else f'E{code}'}")
         return seq, n
@@ -110,9 +102,6 @@ class Ledger:
     def sends(self, seq: int) -> int:
         i = seq - self.first
         return self._sends[i] if 0 <= i < len(self._sends) else 0
-
-    def error_code(self, seq: int) -> int | None:
-        return self._error.get(seq)
 
     @property
     def last_sent(self) -> int:

@@ -8,6 +8,7 @@ from its state after a reset (M5 S0, M9).
 """
 from __future__ import annotations
 
+import re
 from typing import Iterable, Iterator
 
 from ipo.feed.grbl_twin.wire import MODAL, NOTHING, SYNC, WireLine, event_line, kind_of, motion_line
@@ -40,6 +41,17 @@ def _code(line: StreamLine) -> str:
     return line.text.lstrip("N0123456789")
 
 
+_AXIS_WORD = re.compile(r"([XYZ])([-+]?[0-9.]+)")
+
+
+def _words(line: StreamLine) -> tuple[tuple, tuple]:
+    """The X, Y, Z numbers written on a motion line, and the frame grbl adds to them (none
+    under G53: machine coordinates)."""
+    found = dict(_AXIS_WORD.findall(_code(line).split("I")[0].split("J")[0].split("K")[0]))
+    frame = (0.0, 0.0, 0.0) if _code(line).startswith("G53") else tuple(line.fmt.frame_mm)
+    return tuple(found.get(a) for a in "XYZ"), frame
+
+
 def wire_lines(groups: Iterable[tuple[object, list[StreamLine]]]) -> Iterator[WireLine]:
     """WireLines of stream_groups' (entity, lines): a motion's lines move (a too-long line's
     modal half does not), an event's first line carries the event out (grbl 1.1 ignores M1:
@@ -50,7 +62,11 @@ def wire_lines(groups: Iterable[tuple[object, list[StreamLine]]]) -> Iterator[Wi
         if entity is None or isinstance(entity, MOTION_TYPES):
             for l in lines:
                 n = len(l.text) + 1
-                yield motion_line(entity, n, l.end_mm, l.feed_mm_min) if l.motion else WireLine(n, l.source_line, MODAL)
+                if l.motion:
+                    words, frame = _words(l)
+                    yield motion_line(entity, n, l.end_mm, l.feed_mm_min, words, frame)
+                else:
+                    yield WireLine(n, l.source_line, MODAL)
             continue
         if not lines:
             yield WireLine(0, entity.line, NOTHING, event=entity)

@@ -35,7 +35,6 @@ class IncrementReceiver:
         self.expected = 0
         self.last = F.NO_SEQ
         self.executed_periods = 0
-        self.frames_accepted = 0
         self.duplicates = 0
         self.naks = 0
         self._announced = capacity_periods
@@ -66,7 +65,6 @@ class IncrementReceiver:
             self.buffer.append(fr.inc_blu)
             self.buffered += n
             self.last, self.expected = fr.seq, (fr.seq + 1) % F.SEQ_MOD
-            self.frames_accepted += 1
             self._ack()
         elif 0 < behind <= F.SEQ_MOD // 2:  # a resend of a frame already taken: confirm again
             self.duplicates += 1

@@ -47,11 +47,9 @@ def test_regimes_agree_at_critical_angle():
     np.testing.assert_allclose(rg.rmax_tip_mm(R, fi, ac), rg.rmax_no_tip_mm(R, fi, FP), rtol=1e-9)
 
 
-def test_isotropic_target_and_conventional_model():
+def test_isotropic_target():
     h = rg.cusp_height_mm(R, FP)
     assert h == pytest.approx(FP**2 / (8 * R), rel=1e-3)
-    # flat surface, no feed marks: the conventional model gives the cusp term f_p^2/(8r)
-    assert rg.conventional_rmax_mm(R, 0.0, FP) == pytest.approx(FP**2 / (8 * R))
 
 
 def test_unreachable_target_is_an_error():

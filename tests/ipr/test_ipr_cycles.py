@@ -13,7 +13,7 @@ from rs274 import canon_moves, require_rs274, run_rs274
 from test_ipr_rs274 import mismatches
 
 import ipr
-from ipr.entities import EXACT_STOP, Dwell, GCodeError, Line, Rapid, Spindle, Stop
+from ipr.entities import EXACT_PATH, Dwell, GCodeError, Line, Rapid, Spindle, Stop
 
 CYCLES = ("G73", "G74", "G81", "G82", "G83", "G84", "G85", "G86", "G88", "G89")
 # plane -> (normal axis letter, the two in-plane letters)
@@ -79,7 +79,7 @@ def test_g83_reaches_each_peck_depth() -> None:
     ents = [e for e in ipr.parse_text(text).entities if isinstance(e, (Line, Rapid))]
     feeds = [e for e in ents if isinstance(e, Line)]
     assert [round(f.end[2], 9) for f in feeds] == [-1.5, -4.0, -6.5, -7.0]
-    assert all(f.end[:2] == (3.0, 4.0) and f.path == EXACT_STOP for f in feeds)
+    assert all(f.end[:2] == (3.0, 4.0) and f.path == EXACT_PATH for f in feeds)  # LinuxCNC's G61 in cycles
     for prev_depth, feed in zip([None] + feeds[:-1], feeds):
         if prev_depth is not None:   # the feed starts 0.254 mm above the previous peck's depth
             assert feed.start[2] == pytest.approx(prev_depth.end[2] + 0.254, abs=1e-12)

@@ -52,7 +52,7 @@ def test_a_program_text_reads_its_subroutine_files_once(tmp_path):
     assert {e.file for e in first if isinstance(e, Line)} == {str(tmp_path / "side.ngc")}
 
 
-def test_a_loop_is_interpreted_in_batches_of_its_own():
+def test_a_loop_is_handed_out_in_bounded_batches():
     count = 10_000
     run = ProgramText("loop.ngc", f"G21 G90 G0 X0 Y0\n#1=0\no1 repeat [{count}]\n  #1=[#1+1]\n"
                                   f"  G1 X[#1 MOD 2] Y#1 F600\no1 endrepeat\nM2\n").interpret()
@@ -60,5 +60,6 @@ def test_a_loop_is_interpreted_in_batches_of_its_own():
     for batch in run:
         sizes.append(len(batch))
         last = batch[-1]
-    assert sum(sizes) == count + 2 and max(sizes) == 1   # a loop body is a stretch: nothing piles up
+    # one iteration makes one entity: they are gathered into batches, never more than one batch held
+    assert sum(sizes) == count + 2 and sizes[:2] == [interpretation.BATCH] * 2 and max(sizes) == interpretation.BATCH
     assert last.line == 7 and run.last_line == 7

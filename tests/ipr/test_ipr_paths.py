@@ -1,6 +1,7 @@
-"""The interpreter's shortcuts change nothing: with the G0..G3 step functions (ipr.plain)
-and the shape templates (ipr.shapes) switched off, every program gives the
-same entities, warnings and errors through the general path and the full grammar."""
+"""The interpreter's shortcuts change nothing: with the G0..G3 step functions (ipr.plain), the
+scanned runs of plain lines (ipr.plain_runs) and the shape templates (ipr.shapes) switched off,
+every program gives the same entities, warnings and errors through the general path and the
+full grammar."""
 from __future__ import annotations
 
 import random
@@ -29,8 +30,8 @@ def _outcome(text: str):
 
 
 def _general_only(monkeypatch):
-    monkeypatch.setattr(ipr.interpreter, "compile_step", lambda *a: None)
-    monkeypatch.setattr(ipr.interpreter, "compile_arc_step", lambda *a: None)
+    monkeypatch.setattr(ipr.interpreter, "step_for", lambda *a: None)
+    monkeypatch.setattr(ipr.interpreter, "SCAN_LINES", 10 ** 9)   # no runs of plain lines (ipr.plain_runs)
     monkeypatch.setattr(ipr.interpreter, "template_for", lambda shape: None)
     monkeypatch.setattr(ipr.interpreter, "expression_block", lambda text: None)
 

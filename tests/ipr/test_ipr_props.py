@@ -303,3 +303,50 @@ def test_fast_path_equals_full_grammar_on_corpus_shapes() -> None:
              "G06.2 P4 K0. X0. Y0. Z0. R1. F5000.", "K1.", "%", "", "   ", "G1 X1.Y2.", "G1X-.5Y+.5"]
     for line in lines:
         assert _outcome(ipr.parse_line, line) == _outcome(ipr.parse_line_full, line), line
+
+
+# ---- compiled expressions (loops run their lines' expressions compiled) ---------------------------
+
+def _value_or_error(f):
+    try:
+        return f()
+    except Exception as err:   # noqa: BLE001 - the error itself is what is compared
+        return type(err).__name__, str(err)
+
+
+@SETTINGS
+@given(expression(), st.lists(st.floats(-1e3, 1e3), min_size=5, max_size=5))
+def test_compiled_expressions_equal_the_tree_walk(text: str, values: list[float]) -> None:
+    from ipr.expressions import compile_expression, evaluate
+    from ipr.modal import ModalState, Setup
+
+    try:
+        node = ipr.parse_line_full(f"X{text}").words[0][1]
+    except LineSyntaxError:
+        return
+    params = ModalState(Setup()).params
+    params.update({1: values[0], 2: values[1], 3: values[2], "a": values[3], "_g": values[4]})
+    walked = _value_or_error(lambda: evaluate(node, params))
+    compiled = _value_or_error(lambda: compile_expression(node)(params))
+    assert walked == compiled or (walked != walked and compiled != compiled)   # nan is no outcome, but alike
+
+
+@SETTINGS
+@given(st.lists(st.sampled_from([
+    "#1=[#1+1]", "#2=[#2*1.5-#1]", "G1 X[#1 MOD 7] Y[#2/3] F[100+#1]", "G0 Z[SQRT[#1]]",
+    "G1 X[#1] Y[COS[#1*30]*5]", "G2 X[#1+1] Y0 R[2+#1/10]", "G91 G1 X0.5", "G90", "#<_v>=[#<_v>+#2]",
+    "G1 X#<_v>"]), min_size=1, max_size=6), st.integers(1, 6))
+def test_a_loop_runs_its_lines_as_they_run_written_out(body: list[str], count: int) -> None:
+    """A loop body run `count` times (read once, its expressions compiled) gives the moves of the
+    same lines written out `count` times (each line read and walked once)."""
+    head = "G21 G90 G17 G0 X0 Y0 Z0 F100\n#1=1\n#2=1\n#<_v>=0\n"
+    looped = head + f"o1 repeat [{count}]\n" + "\n".join(body) + "\no1 endrepeat\nM2\n"
+    written = head + "\n".join(body * count) + "\nM2\n"
+
+    def moves(text):
+        try:
+            return [(type(e).__name__, getattr(e, "end", None), getattr(e, "feed_mm_s", None))
+                    for e in ipr.parse_text(text).entities]
+        except GCodeError as err:
+            return [d.code for d in err.diagnostics]
+    assert moves(looped) == moves(written)

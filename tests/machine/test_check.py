@@ -7,6 +7,7 @@ import tracemalloc
 import pytest
 
 import ipr
+import ipr.interpretation
 from ipo.config import default_config
 from ipr.entities import Line
 from machine.check import CheckedProgram
@@ -16,7 +17,10 @@ LOOP = ("G21 G90 G0 X0 Y0 Z0\n#1=0\no1 repeat [{count}]\n  #1=[#1+1]\n  G1 X[#1 
         "o1 endrepeat\nM2\n")
 
 
-def test_a_loop_is_checked_without_holding_its_moves(tmp_path):
+def test_a_loop_is_checked_without_holding_its_moves(tmp_path, monkeypatch):
+    # the interpretation hands out batches of BATCH entities: small here, so that 5,000 moves are
+    # many batches and holding them all would show
+    monkeypatch.setattr(ipr.interpretation, "BATCH", 256)
     path = tmp_path / "loop.ngc"
     ctl = Controller(default_config())
     path.write_text(LOOP.format(count=10))

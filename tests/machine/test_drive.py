@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ipo.contracts import LIMIT_CURVATURE, PeriodBatch
-from machine.drive import CommandMismatchError, Drive, DriveLimits, TravelLimitError, chord_errors_mm
+from machine.drive import CommandMismatchError, Drive, DriveLimits, TravelLimitError
 from machine.servo import ServoModel
 from machine.trace import MemoryTrace, load_trace, open_writer
 
@@ -131,14 +131,14 @@ def test_pos_mm_must_match_the_increments():
         Drive(limits(blu_mm=0.1)).receive(b)
 
 
-def test_chord_error_of_points_on_a_circle_is_the_sagitta():
-    R = 3.0
-    ang = np.array([0.0, 0.1, 0.25, 0.3])
-    p = np.column_stack((R * np.cos(ang), R * np.sin(ang), np.zeros(4)))
-    expected = R * (1 - np.cos(np.diff(ang)[:2] / 2))
-    np.testing.assert_allclose(chord_errors_mm(p), expected, rtol=1e-9)
-    line = np.column_stack((np.arange(5.0), 2 * np.arange(5.0), np.zeros(5)))
-    assert np.all(chord_errors_mm(line) == 0)
+def test_a_straight_line_has_no_chord_error():
+    blu = 1e-4
+    k = np.arange(1, 401)[:, None]
+    pts = k * np.array([0.01, 0.02, 0.0])  # 100 and 200 BLU a period: every chord counts
+    drive = Drive(limits(blu_mm=blu))
+    for b in batches(pts, blu):
+        drive.receive(b)
+    assert drive.stats.periods == 400 and drive.stats.max_chord_error_mm == 0.0
 
 
 def test_lag_servo_ramp_following_error_is_v_tau():

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tests.machine.test_run_cli import vcnc
 
@@ -48,6 +49,7 @@ def test_a_bad_settings_file_is_a_usage_error(tmp_path):
     assert r.exit_code == 2 and f"{bad}:2: not a grbl setting line" in r.stderr
 
 
+@pytest.mark.slow
 def test_compare_runs_one_program_on_two_controllers():
     r = vcnc("compare", PROGRAM, PROGRAM, "--planner", "grbl", "--planner", "vcnc", "--grbl-settings", DUMP, "--json")
     assert r.exit_code == 0, r.stderr

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from machine.plot import _top, columns, envelope_line
+from machine.plot import columns, envelope_line, y_top
 
 
 def test_columns_keep_each_columns_exact_extremes_of_the_run():
@@ -29,7 +29,7 @@ def test_envelope_line_passes_through_every_extreme():
 
 
 def test_axis_scale_follows_the_data_and_draws_only_a_near_limit():
-    top, shown = _top(5.0, [200.0, 6.0, None])
+    top, shown = y_top(5.0, [200.0, 6.0, None])
     assert top == pytest.approx(6.0 * 1.04) and shown == [False, True, False]
-    top, shown = _top(5.0, [200.0, 200.0, 200.0])
+    top, shown = y_top(5.0, [200.0, 200.0, 200.0])
     assert top == pytest.approx(5.4) and shown == [False] * 3

@@ -59,39 +59,67 @@ def _derivs_any(p, u, out_c, out_d1, out_d2):
 
 
 @njit(cache=True)
+def _frame_into(p, u, speed, t, kv, rows):
+    """Speed |C'|, unit tangent and curvature vector at u[rows] into the same rows; False
+    where the derivative vanishes."""
+    n = rows.shape[0]
+    uu = np.empty(n)
+    for r in range(n):
+        uu[r] = u[rows[r]]
+    c, d1, d2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    _derivs(p, uu, c, d1, d2)
+    for r in range(n):
+        i = rows[r]
+        sp = np.sqrt(d1[r, 0] * d1[r, 0] + d1[r, 1] * d1[r, 1] + d1[r, 2] * d1[r, 2])
+        speed[i] = sp
+        if sp <= 0:
+            return False
+        for a in range(3):
+            t[i, a] = d1[r, a] / sp
+        dot = d2[r, 0] * t[i, 0] + d2[r, 1] * t[i, 1] + d2[r, 2] * t[i, 2]
+        for a in range(3):
+            kv[i, a] = (d2[r, a] - dot * t[i, a]) / (sp * sp)
+    return True
+
+
+@njit(cache=True)
 def _frame(p, u):
     """Speed |C'|, unit tangent and curvature vector at u."""
     n = u.shape[0]
-    c, d1, d2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    _derivs(p, u, c, d1, d2)
-    speed = np.empty(n)
-    t, kv = np.empty((n, 3)), np.empty((n, 3))
-    for i in range(n):
-        sp = np.sqrt(d1[i, 0] * d1[i, 0] + d1[i, 1] * d1[i, 1] + d1[i, 2] * d1[i, 2])
-        speed[i] = sp
-        if sp <= 0:
-            return speed, t, kv, False
-        for a in range(3):
-            t[i, a] = d1[i, a] / sp
-        dot = d2[i, 0] * t[i, 0] + d2[i, 1] * t[i, 1] + d2[i, 2] * t[i, 2]
-        for a in range(3):
-            kv[i, a] = (d2[i, a] - dot * t[i, a]) / (sp * sp)
-    return speed, t, kv, True
+    speed, t, kv = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
+    ok = _frame_into(p, u, speed, t, kv, np.arange(n))
+    return speed, t, kv, ok
+
+
+@njit(cache=True)
+def _increasing(u):
+    for i in range(u.shape[0] - 1):
+        if not u[i] < u[i + 1]:
+            return False
+    return True
 
 
 @njit(cache=True)
 def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
     """(s, u, speed, t, kv, ok) as ipo.feed.sampling.nurbs_table builds them; ok is False where
-    the derivative vanishes."""
+    the derivative vanishes.
+
+    1. u: start_per_span + 1 equal steps.
+    2. Up to `rounds` times: split every interval whose tangent turns by more than
+       max_turn_rad or that is longer than max_spacing_mm (at most 64 parts); the frames of
+       the parameters kept from the round before are reused, the new ones evaluated.
+    3. Simpson's rule on |C'| over each interval: the arc length s."""
+    # 1. the start
     u = np.empty(start_per_span + 1)
     step = 1.0 / start_per_span
     for i in range(start_per_span + 1):
         u[i] = i * step
     u[start_per_span] = 1.0
+    speed, t, kv, ok = _frame(p, u)
+    if not ok:
+        return u, u, speed, t, kv, False
+    # 2. refinement
     for _ in range(rounds):
-        speed, t, kv, ok = _frame(p, u)
-        if not ok:
-            return u, u, speed, t, kv, False
         m = u.shape[0] - 1
         split = np.empty(m, np.int64)
         total = 0
@@ -106,8 +134,10 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
         if total == m:
             break
         out = np.empty(total + 1)
+        old = np.empty(m + 1, np.int64)  # where each kept parameter lands in out
         j = 0
         for i in range(m):
+            old[i] = j
             out[j] = u[i]
             j += 1
             if split[i] > 1:
@@ -116,11 +146,25 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
                 for r in range(1, sp):
                     out[j] = r * h + u[i]
                     j += 1
+        old[m] = j
         out[j] = u[m]
-        u = np.unique(out)
-    speed, t, kv, ok = _frame(p, u)
-    if not ok:
-        return u, u, speed, t, kv, False
+        if not _increasing(out):  # rounding made a duplicate: the sorted unique set, all evaluated
+            u = np.unique(out)
+            speed, t, kv, ok = _frame(p, u)
+            if not ok:
+                return u, u, speed, t, kv, False
+            continue
+        speed_n, t_n, kv_n = np.empty(total + 1), np.empty((total + 1, 3)), np.empty((total + 1, 3))
+        fresh = np.ones(total + 1, np.bool_)
+        for i in range(m + 1):
+            speed_n[old[i]] = speed[i]
+            t_n[old[i]] = t[i]
+            kv_n[old[i]] = kv[i]
+            fresh[old[i]] = False
+        if not _frame_into(p, out, speed_n, t_n, kv_n, np.nonzero(fresh)[0]):
+            return out, out, speed_n, t_n, kv_n, False
+        u, speed, t, kv = out, speed_n, t_n, kv_n
+    # 3. the arc length
     mid = 0.5 * (u[:-1] + u[1:])
     mid_speed, _, _, ok = _frame(p, mid)
     if not ok:

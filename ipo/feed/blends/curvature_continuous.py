@@ -19,6 +19,7 @@ K = 1 + 5 C1 + 10 C2 (the Bernstein weights 1, 5, 10 / 32 of each side's points)
 """
 from __future__ import annotations
 
+from functools import cache
 from math import comb
 
 import numpy as np
@@ -62,7 +63,12 @@ def _shape_factors(theta: np.ndarray, n: int = 2001) -> tuple[np.ndarray, np.nda
 
 
 _THETA_GRID = np.linspace(1e-3, np.pi - 1e-3, 360)
-_K_D, _DK_D2 = _shape_factors(_THETA_GRID)
+
+
+@cache
+def _shape_table() -> tuple[np.ndarray, np.ndarray]:
+    """_shape_factors on _THETA_GRID, made on first use (S-curve mode), not at every start-up."""
+    return _shape_factors(_THETA_GRID)
 
 
 def g2_corner_x(theta: np.ndarray, d_mm: np.ndarray, a_mm_s2: float, j_mm_s3: float) -> np.ndarray:
@@ -70,8 +76,9 @@ def g2_corner_x(theta: np.ndarray, d_mm: np.ndarray, a_mm_s2: float, j_mm_s3: fl
     v^2 kappa <= a, v^3 kappa^2 <= j (the centripetal acceleration turning with the tangent)
     and v^3 kappa' <= j (limits.sample_caps' S-curve caps)."""
     with np.errstate(divide="ignore"):  # d = 0 where no blend fits: cap 0
-        kappa = np.interp(theta, _THETA_GRID, _K_D) / d_mm
-        rate = np.interp(theta, _THETA_GRID, _DK_D2) / d_mm**2
+        k_d, dk_d2 = _shape_table()
+        kappa = np.interp(theta, _THETA_GRID, k_d) / d_mm
+        rate = np.interp(theta, _THETA_GRID, dk_d2) / d_mm**2
         return np.minimum(a_mm_s2 / kappa, np.minimum((j_mm_s3 / kappa**2), j_mm_s3 / rate) ** (2.0 / 3.0))
 
 

@@ -26,6 +26,7 @@ from collections import deque
 from typing import Iterable, Iterator
 
 from ipo.feed.grbl_twin.arcs import arc_targets
+from ipo.feed.grbl_twin.numbers import f32, read_float
 from ipo.feed.grbl_twin.planner import Planner
 from ipo.feed.grbl_twin.stepper import F_CPU_HZ, SEGMENT_BUFFER_SIZE, Prep
 from ipo.feed.grbl_twin.wire import ARC, DWELL, END, MOVE, RAPID, STOP, SYNC, WireLine
@@ -40,7 +41,7 @@ class Board:
     """One grbl 1.1 board: see the module docstring."""
 
     def __init__(self, settings, *, start_mm=(0.0, 0.0, 0.0), baud: float | None = None, feed_override: float = 1.0,
-                 reply_latency_s: float = 0.0):
+                 answer_s: float | None = None):
         self.settings = settings
         start_steps = [round(p * s) for p, s in zip(start_mm, settings.steps_per_mm)]
         self.planner = Planner(settings.steps_per_mm, settings.max_rate_mm_min,
@@ -49,8 +50,10 @@ class Board:
         self.planner.override = feed_override
         self.prep = Prep(self.planner)
         self.byte_s = 0.0 if baud is None else 10.0 / baud
-        self.reply_s = OK_BYTES * self.byte_s + reply_latency_s
-        self.position_mm = [float(c) for c in start_mm]  # the parser's position (gc_state.position)
+        # from grbl's `ok` to the sender's next byte: the answer's bytes on the wire (a simulator
+        # with no wire time on its answers gives its client's latency instead)
+        self.reply_s = OK_BYTES * self.byte_s if answer_s is None else answer_s
+        self.position_mm = [f32(c) for c in start_mm]  # the parser's position (gc_state.position), floats
         self.idle_lock_s = settings.idle_lock_s
 
     def run(self, lines: Iterable[WireLine]) -> Iterator[tuple]:
@@ -135,15 +138,22 @@ class Board:
             self._seg_end = _ticks(t) + self._segq[0].n_tick
 
     def _targets(self, line: WireLine) -> list:
-        """The planner moves of a motion line (machine mm), with its feed; the parser's
-        position follows the programmed end."""
+        """The planner moves of a motion line (machine mm), with its feed. The parser's position
+        follows the programmed end as grbl reads it: the written numbers in single precision plus
+        the frame (gcode.c), an axis not written keeping its value."""
+        if line.words is None:
+            end = [f32(c) for c in line.end_mm]
+        else:
+            end = [self.position_mm[k] if w is None else f32(read_float(w) + f32(line.frame_mm[k]))
+                   for k, w in enumerate(line.words)]
         if line.kind == ARC:
             center, plane, ccw = line.arc
-            chords = arc_targets(self.position_mm, line.end_mm, center, plane, ccw,
-                                 self.settings.arc_tolerance_mm)
+            chords = arc_targets([float(c) for c in self.position_mm], [float(c) for c in end], center, plane,
+                                 ccw, self.settings.arc_tolerance_mm)
+            chords[-1] = end
         else:
-            chords = [list(line.end_mm)]
-        self.position_mm = list(line.end_mm)
+            chords = [end]
+        self.position_mm = end
         return [(c, line.feed_mm_min) for c in chords]
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+from ipo.feed.grbl_twin.numbers import to_steps
+
 BLOCK_BUFFER_SIZE = 16  # planner.h: one slot always empty, 15 blocks usable
 MINIMUM_JUNCTION_SPEED_MM_MIN = 0.0  # config.h
 MINIMUM_FEED_RATE_MM_MIN = 1.0  # config.h
@@ -22,8 +24,7 @@ class Block:
     """One planner block (plan_block_t) and what the twin needs to place it."""
 
     __slots__ = ("steps", "step_event_count", "mm", "accel", "rapid_rate", "programmed_rate", "rapid",
-                 "entry_sqr", "max_entry_sqr", "max_junction_sqr", "start_steps", "target_steps", "line",
-                 "junction_limited")
+                 "entry_sqr", "max_entry_sqr", "max_junction_sqr", "start_steps", "target_steps", "line")
 
     def __init__(self):
         self.entry_sqr = 0.0
@@ -100,8 +101,7 @@ class Planner:
         (grbl drops it). The caller checks `full()` first, as mc_line waits for a free block."""
         b = self.ring[self.head]
         # 1. steps and the unit vector, from the rounded step targets
-        target = [int(math.floor(t * s + 0.5)) if t >= 0 else -int(math.floor(-t * s + 0.5))
-                  for t, s in zip(target_mm, self.steps_per_mm)]  # C lround: halves away from zero
+        target = [to_steps(t, s) for t, s in zip(target_mm, self.steps_per_mm)]
         delta = [(t - p) / s for t, p, s in zip(target, self.position, self.steps_per_mm)]
         b.steps = [abs(t - p) for t, p in zip(target, self.position)]
         b.step_event_count = max(b.steps)
@@ -135,7 +135,6 @@ class Planner:
         # 4. entry limit from the junction and both nominal speeds; then re-plan
         nominal = self.nominal_speed(b)
         b.max_entry_sqr = min(min(nominal, self.prev_nominal) ** 2, b.max_junction_sqr)
-        b.junction_limited = b.max_junction_sqr < min(nominal, self.prev_nominal) ** 2
         self.prev_nominal = nominal
         self.prev_unit = unit
         self.position = target

@@ -30,7 +30,7 @@ def settings_of(config: MachineConfig) -> GrblSettings:
 
 def plan_periods(entities: Iterable, config: MachineConfig, *, method: str | None = None,
                  feed_override: float = 1.0, start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096,
-                 wire: Iterable[WireLine] | None = None, reply_latency_s: float = 0.0
+                 wire: Iterable[WireLine] | None = None, answer_s: float | None = None
                  ) -> Iterator[PeriodBatch | object]:
     """Period batches and events of the program as a grbl 1.1 board runs it. `wire`: the
     lines the grbl link sends for these entities (machine.grbl), else made from the entities
@@ -39,7 +39,7 @@ def plan_periods(entities: Iterable, config: MachineConfig, *, method: str | Non
         raise ValueError(f"feed override must be a finite factor > 0, got {feed_override!r}")
     settings = settings_of(config)
     board = Board(settings, start_mm=start_mm, baud=config.grbl_baud, feed_override=feed_override,
-                  reply_latency_s=reply_latency_s)
+                  answer_s=answer_s)
     lines = from_entities(entities) if wire is None else wire
     return _Sampler(config, settings, start_mm, batch_periods, feed_override).run(board.run(lines))
 
@@ -128,14 +128,14 @@ def _reason(seg: Segment) -> int:
 
 
 def motion_span(lines: Iterable[WireLine], settings: GrblSettings, *, start_mm=(0.0, 0.0, 0.0),
-                baud: float | None = None, reply_latency_s: float = 0.0) -> tuple[float, float]:
+                baud: float | None = None, answer_s: float | None = None) -> tuple[float, float]:
     """(first step, last step) of the lines on grbl's clock, in seconds from the first byte sent,
     as grbl's position counter (sys_position, which grbl-sim logs) changes. The step interrupt's
     Bresenham counters start half full, so the longest axis steps at half-step points of its
     progress: the first step half a step into the motion, the last half a step before its end,
     on the grid of the interrupt (2**level runs per step under AMASS)."""
     first = last = None
-    for rec in Board(settings, start_mm=start_mm, baud=baud, reply_latency_s=reply_latency_s).run(lines):
+    for rec in Board(settings, start_mm=start_mm, baud=baud, answer_s=answer_s).run(lines):
         if rec[0] == "segment":
             seg = rec[2]
             half = (1 << seg.amass_level) // 2  # interrupt runs in half a step

@@ -38,6 +38,8 @@ class WireLine:
     arc: tuple | None = None  # (center_mm, plane, ccw) of a G2/G3
     dwell_s: float = 0.0
     event: object = None  # the program's entity this line carries out, yielded when grbl runs it
+    words: tuple | None = None  # the X, Y, Z numbers as written on the line (None: not written)
+    frame_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)  # what grbl adds to them (G54...; 0 under G53)
 
 
 def kind_of(entity) -> str:
@@ -55,16 +57,18 @@ def kind_of(entity) -> str:
     raise TypeError(f"the grbl twin cannot run {type(entity).__name__}")
 
 
-def motion_line(entity, n_bytes: int = 0, end_mm=None, feed_mm_min=None) -> WireLine:
-    """The line of a G0/G1/G2/G3 entity (end and feed: the entity's unless given)."""
+def motion_line(entity, n_bytes: int = 0, end_mm=None, feed_mm_min=None, words=None,
+                frame_mm=(0.0, 0.0, 0.0)) -> WireLine:
+    """The line of a G0/G1/G2/G3 entity (end and feed: the entity's unless given; `words`
+    and `frame_mm`: the numbers as written, see WireLine)."""
     end = tuple(float(c) for c in (entity.end if end_mm is None else end_mm))
     if isinstance(entity, Rapid):
-        return WireLine(n_bytes, entity.line, RAPID, end)
+        return WireLine(n_bytes, entity.line, RAPID, end, words=words, frame_mm=frame_mm)
     feed = entity.feed_mm_s * 60.0 if feed_mm_min is None else feed_mm_min
+    arc = None
     if isinstance(entity, Arc):
-        return WireLine(n_bytes, entity.line, ARC, end, feed,
-                        (tuple(float(c) for c in entity.center), entity.plane, bool(entity.ccw)))
-    return WireLine(n_bytes, entity.line, MOVE, end, feed)
+        arc = (tuple(float(c) for c in entity.center), entity.plane, bool(entity.ccw))
+    return WireLine(n_bytes, entity.line, ARC if arc else MOVE, end, feed, arc, words=words, frame_mm=frame_mm)
 
 
 def event_line(entity, n_bytes: int = 0) -> WireLine:

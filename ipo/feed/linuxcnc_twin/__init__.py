@@ -5,8 +5,8 @@ tc.c, blendmath.c, spherical_arc.c, posemath), written anew in Python and numba;
 reproduces LinuxCNC's per-period trajectory, to the BLU, on the programs measured in
 tests/data/linuxcnc_twin (docs/twins.md).
 
-- `settings`: what the twin knows of the machine (LinuxcncSettings); from the machine file,
-  or from a LinuxCNC INI file by `ini` (load_ini, IniError).
+- `settings`: what the twin knows of the machine (ipo.linuxcnc_ini.LinuxcncSettings): the
+  machine's LinuxCNC INI file (read at load by ipo.linuxcnc_ini), or the machine file's axes.
 - `vec`, `geometry`: posemath's vectors, lines, circles (spiral, helix, the arc-length fit),
   spherical blend arcs.
 - `canon`: the canon layer: naive-CAM merging, arcs, path modes; `biarcs`: G5.2 NURBS as
@@ -19,5 +19,6 @@ tests/data/linuxcnc_twin (docs/twins.md).
 - `planner`: `plan_periods`, the entry point (ipo.feed.planner's interface), and the stops
   task makes at spindle, coolant, message, tool and dwell blocks.
 
-May import: ipo.config, ipo.contracts, ipo.errors, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.linuxcnc_ini, ipo.contracts, ipo.errors, ipo.nurbs, ipo.interp, ipr.entities, numpy,
+numba.
 """

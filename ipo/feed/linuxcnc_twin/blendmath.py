@@ -72,21 +72,21 @@ def intersection_angle(u1: Vec, u2: Vec) -> float:
 
 
 def inscribed_diameter(normal: Vec, bounds: Vec) -> float:
-    """calculateInscribedDiameter: the axis limits' box cut by the corner's plane."""
+    """calculateInscribedDiameter: the axis limits' box cut by the corner's plane (axis i's
+    unit vector projected on the plane, its own component kept above 1e-12, as the C does)."""
     if abs(1.0 - v.mag_sq(normal)) > math.sqrt(POS_EPSILON):
         raise GeometryError("corner normal not a unit vector")
-    extents = []
-    for i in range(3):
-        e = [-normal[i] * normal[0], -normal[i] * normal[1], -normal[i] * normal[2]]
-        e[i] += 1.0
-        e = [abs(c) for c in e]
-        e[i] = max(e[i], POS_EPSILON)
-        extents.append(bounds[i] / math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2) if bounds[i] != 0 else 0.0)
-    out = max(extents)
-    for i in range(3):
-        if bounds[i] != 0:
-            out = min(out, extents[i])
-    return out
+    nx, ny, nz = normal
+    out, low = 0.0, math.inf
+    for i, b in enumerate(bounds):
+        if b == 0:
+            continue
+        ni = normal[i]
+        c = [nx * -ni, ny * -ni, nz * -ni]
+        c[i] = max(abs(c[i] + 1.0), POS_EPSILON)
+        extent = b / math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
+        out, low = max(out, extent), min(low, extent)
+    return low if low < math.inf else out
 
 
 def accel_scale(acc: Vec, bounds: Vec) -> Vec:

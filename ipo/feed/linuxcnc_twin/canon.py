@@ -13,7 +13,8 @@ What task does between the interpreter and the planner, per canonical call:
   lowest in-plane axis acceleration bounds its speed), a helix or spiral by its length;
 - NURBS_FEED (G5.2): biarcs (ipo.feed.linuxcnc_twin.biarcs), each an ARC_FEED;
 - SET_MOTION_CONTROL_MODE (G61, G61.1, G64): flushes the chain, then the planner's terminal
-  condition and blend tolerance for the moves after it.
+  condition and blend tolerance for the moves after it (a canned cycle runs in G61, and
+  after it restores the canon's mode: before any G64 that is the start-up 0.001 in).
 Feeds are in mm/s, as ipr hands them over.
 """
 from __future__ import annotations
@@ -28,12 +29,18 @@ from ipo.feed.linuxcnc_twin.vec import CART_FUZZ, Vec
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, PathControl, Rapid
 
 MAX_CHAIN = 100  # linkable(): a chain longer than this is sent
+# INIT_CANON's blend tolerance, 0.001 in: the planner starts without it (tolerance 0), but a
+# canned cycle saves the canon's mode before switching to G61 and restores it after itself
+STARTUP_TOL_MM = 0.001 * 25.4
 
 
-def path_mode(path: PathControl) -> tuple[int, float, float]:
-    """(terminal condition, blend tolerance P, naive-CAM tolerance Q) of a path-control mode."""
+def path_mode(path: PathControl, after_startup: bool) -> tuple[int, float, float]:
+    """(terminal condition, blend tolerance P, naive-CAM tolerance Q) of a path-control mode;
+    `after_startup`: the start-up mode is back after another (a canned cycle's G61)."""
     if path.exact_stop:
         return (TERM_EXACT if path.exact_path else TERM_STOP), 0.0, 0.0
+    if path.startup:
+        return TERM_PARABOLIC, STARTUP_TOL_MM if after_startup else 0.0, 0.0
     p = path.blend_tol_mm or 0.0
     q = path.merge_tol_mm if path.merge_tol_mm is not None else p
     return TERM_PARABOLIC, p, q
@@ -50,12 +57,14 @@ class Canon:
         self.end_point: Vec = start
         self.feed = 0.0
         self.mode: tuple[int, float, float] = (TERM_PARABOLIC, 0.0, 0.0)
+        self.left_startup = False  # a mode other than the start-up one has been set
         self.chain: list[tuple[Vec, int]] = []
         tp.goal = start
 
     # ---- modal changes -----------------------------------------------------------------
     def set_path(self, path: PathControl) -> None:
-        mode = path_mode(path)
+        self.left_startup |= not path.startup
+        mode = path_mode(path, self.left_startup)
         if mode != self.mode:
             self.flush()
             self.mode = mode

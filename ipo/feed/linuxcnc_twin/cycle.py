@@ -273,7 +273,7 @@ def _activate(F, I, k, p):
 @njit(cache=True, error_model="numpy")
 def _reason(F, I, k, acc, p):
     """vcnc's limit code for a period of segment k."""
-    if abs(acc) > 1e-9:
+    if abs(acc) * p[P_T] > 1e-6:  # the speed changes by more than 1 um/s this period
         return LIMIT_ACCEL
     if F[k, REQVEL] * _feed_scale(F, I, k, p) <= min(F[k, MAXVEL], p[P_VLIMIT]):
         return LIMIT_PROGRAMMED

@@ -128,16 +128,6 @@ class Circle:
         p = v.add(p, v.scale(v.unit(p), s * self.spiral))
         return v.add(self.center, v.add(p, v.scale(self.rhelix, s)))
 
-    def angle_at(self, progress: float) -> float:
-        """pmCircleAngleFromProgress: the angle at arc length `progress` along the helix."""
-        t = progress / self.length
-        if self.spiral_in:
-            t = 1.0 - t
-        s_in = t * self.planar_length
-        disc = self.b1 * self.b1 + 4.0 * self.b0 * s_in
-        a = (-2.0 * s_in) / (-self.b1 - math.sqrt(max(disc, 0.0)))
-        return self.angle - a if self.spiral_in else a
-
     def tangent(self, angle: float) -> Vec:
         """pmCircleTangentVector: unit tangent (plane, helix and spiral parts)."""
         r = v.sub(self.point(angle), self.center)

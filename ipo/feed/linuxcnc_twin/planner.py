@@ -28,9 +28,10 @@ from ipo.errors import START, IpoError
 from ipo.feed.linuxcnc_twin.canon import Canon
 from ipo.feed.linuxcnc_twin.columns import NF, NI, pack
 from ipo.feed.linuxcnc_twin.cycle import run_cycles
-from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings, from_machine
+from ipo.feed.linuxcnc_twin.settings import settings_of
 from ipo.feed.linuxcnc_twin.tp import TrajectoryPlanner
 from ipo.feed.linuxcnc_twin.waits import TaskWaits, stops_motion
+from ipo.linuxcnc_ini import LinuxcncSettings
 from ipo.interp.reference_word import quantise
 from ipr.entities import MOTION_TYPES, Dwell, ProgramEnd
 
@@ -139,6 +140,7 @@ def plan_periods(entities: Iterable, config: MachineConfig, *, method: str | Non
                  feed_override: float = 1.0, start_mm=(0.0, 0.0, 0.0), batch_periods: int = 4096,
                  settings: LinuxcncSettings | None = None) -> Iterator[PeriodBatch | object]:
     """Period batches interleaved with the non-motion events, as LinuxCNC 2.9 would run them
-    (`method` is vcnc's NURBS interpolator: LinuxCNC runs NURBS as biarcs, so it is unused)."""
-    return LinuxcncTwin(config, settings or from_machine(config), feed_override=feed_override, start_mm=start_mm,
+    (`method` is vcnc's NURBS interpolator: LinuxCNC runs NURBS as biarcs, so it is unused);
+    `settings`: LinuxCNC's (default: the machine's, ipo.feed.linuxcnc_twin.settings)."""
+    return LinuxcncTwin(config, settings or settings_of(config), feed_override=feed_override, start_mm=start_mm,
                         batch_periods=batch_periods).run(entities)

@@ -30,7 +30,7 @@ class Tc:
     __slots__ = ("kind", "canon", "line_no", "shape", "target", "nominal_length", "reqvel", "maxvel",
                  "vmax_reason", "maxaccel", "acc_ratio_tan", "finalvel", "kink_vel", "kink_accel_reduce",
                  "kink_accel_reduce_prev", "term_cond", "tolerance", "blend_prev", "finalized",
-                 "optimization_state", "atspeed", "active_depth", "progress", "cycle_time")
+                 "optimization_state", "atspeed", "progress", "cycle_time")
 
     def __init__(self, kind: int, canon: int, line_no: int, shape, target: float, *, reqvel: float,
                  maxvel: float, maxaccel: float, term_cond: int, tolerance: float, cycle_time: float):
@@ -46,7 +46,6 @@ class Tc:
         self.finalized = False
         self.optimization_state = 0
         self.atspeed = False
-        self.active_depth = 1
         self.progress = 0.0  # the planner never sees a segment move: it plans ahead of the run
         self.cycle_time = cycle_time
 
@@ -58,18 +57,17 @@ def max_target_vel(tc: Tc, max_scale: float) -> float:
 
 def overall_max_accel(tc: Tc) -> float:
     """tcGetOverallMaxAccel: kinks take their share; a parabolic blend halves it."""
-    a = 1.0 - max(tc.kink_accel_reduce, tc.kink_accel_reduce_prev)
+    r1, r2 = tc.kink_accel_reduce, tc.kink_accel_reduce_prev
+    scale = 1.0 - (r1 if r1 >= r2 else r2)
     if tc.blend_prev or tc.term_cond == TERM_PARABOLIC:
-        a *= 0.5
-    return tc.maxaccel * a
+        scale *= 0.5
+    return tc.maxaccel * scale
 
 
 def tangential_max_accel(tc: Tc) -> float:
     """tcGetTangentialMaxAccel: on circles and blend arcs only acc_ratio_tan of it is tangential."""
     a = overall_max_accel(tc)
-    if tc.kind in (TC_CIRCULAR, TC_SPHERICAL):
-        a *= tc.acc_ratio_tan
-    return a
+    return a if tc.kind == TC_LINEAR else a * tc.acc_ratio_tan
 
 
 def set_term_cond(prev: Tc | None, tc: Tc | None, cond: int) -> None:

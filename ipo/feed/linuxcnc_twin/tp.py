@@ -21,7 +21,7 @@ from ipo.feed.linuxcnc_twin.segments import (TC_CIRCULAR, TC_LINEAR, TERM_EXACT,
                                              max_target_vel, remove_kink, set_circle, set_kink, set_line,
                                              set_term_cond, start_accel_unit, start_tangent, tangential_max_accel,
                                              clamp_by_length)
-from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings
+from ipo.linuxcnc_ini import LinuxcncSettings
 from ipo.feed.linuxcnc_twin.vec import Vec
 
 POS_EPSILON = 1e-12
@@ -263,7 +263,6 @@ class TrajectoryPlanner:
                 tc.finalvel = 0.0
             else:
                 self._optimal_velocity(tc, prev1)
-            tc.active_depth = x - 2 - hit_peaks
             if tc.optimization_state:
                 hit_peaks += 1
             if hit_peaks > OPTIMIZATION_CUTOFF:
@@ -271,11 +270,12 @@ class TrajectoryPlanner:
 
     def _optimal_velocity(self, tc: Tc, prev1: Tc) -> None:
         """tpComputeOptimalVelocity."""
-        vs_back = math.sqrt(tc.finalvel ** 2 + 2.0 * tangential_max_accel(tc) * tc.target)
-        vf_prev = prev1.maxvel
-        if prev1.kink_vel >= 0 and prev1.term_cond == TERM_TANGENT:
-            vf_prev = min(vf_prev, prev1.kink_vel)
-        vf_limit = min(tc.maxvel, vf_prev)
+        vs_back = math.sqrt(tc.finalvel * tc.finalvel + 2.0 * tangential_max_accel(tc) * tc.target)
+        vf_limit = prev1.maxvel
+        if prev1.kink_vel >= 0 and prev1.term_cond == TERM_TANGENT and prev1.kink_vel < vf_limit:
+            vf_limit = prev1.kink_vel
+        if tc.maxvel < vf_limit:
+            vf_limit = tc.maxvel
         if vs_back >= vf_limit:
             vs_back = vf_limit
             prev1.optimization_state = 1

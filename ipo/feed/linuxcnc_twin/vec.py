@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 
 Vec = tuple[float, float, float]
-ZERO: Vec = (0.0, 0.0, 0.0)
 DOUBLE_FUZZ = 2.2204460492503131e-16
 CART_FUZZ = 1.0e-8  # posemath's "zero" for coordinates (the canon layer's too)
 

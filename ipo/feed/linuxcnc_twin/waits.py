@@ -13,7 +13,7 @@ task cycle and a 100 ms iocontrol cycle (tests/data/linuxcnc_twin/README.md: wai
 """
 from __future__ import annotations
 
-from ipo.feed.linuxcnc_twin.settings import LinuxcncSettings
+from ipo.linuxcnc_ini import LinuxcncSettings
 from ipr.entities import Auxiliary, Coolant, Dwell, Message, Spindle, ToolChange
 
 # codes task sends without waiting for the motion (synced I/O, override switches, tool number)

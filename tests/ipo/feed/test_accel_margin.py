@@ -16,6 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ipo.feed import interval_lp as lp
 from ipo.feed import lookahead as la
 from ipo.feed.planner import ACCEL_USE, plan_periods
 from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap
@@ -72,10 +73,10 @@ def test_interval_programme_against_grid_search(seed):
     a_max = np.array([1000.0, 800.0, 1200.0])
     cap, b_top = rng.uniform(100, 4000), rng.uniform(0, 4000)
     rows = np.empty((12, 3))
-    m = la.interval_rows(t, kv, 0, 2 * ds, a_max, 1.0, rows)
-    best = la.max_start(rows, m, cap, b_top)
+    m = lp.interval_rows(t, kv, 0, 2 * ds, a_max, 1.0, rows)
+    best = lp.max_start(rows, m, cap, b_top)
     assert best >= 0.0
-    lo, hi = la.end_range(rows, m, best)
+    lo, hi = lp.end_range(rows, m, best)
     b = min(hi, b_top)
     assert b >= lo - 1e-6 and _rows_feasible(t, kv, a_max, 2 * ds, best, b, tol=1e-6)
     grid = np.linspace(0.0, cap, 401)

@@ -2,11 +2,15 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
-from ipo.feed.linuxcnc_twin.ini import IniError, load_ini
+from ipo.config import ConfigError, load_config
+from ipo.linuxcnc_ini import IniError, load_ini
 from linuxcnc_measured import DATA
+
+MACHINE = (Path(__file__).resolve().parents[4] / "ipo" / "machine.toml").read_text()
 
 
 def test_the_measurement_machines_read_as_linuxcnc_ran_them():
@@ -78,5 +82,20 @@ def test_a_missing_key_or_file_is_refused_naming_it(tmp_path):
     p.write_text(p.read_text().replace("[AXIS_Y]\nMAX_VELOCITY = 50\n", "[AXIS_Y]\n"))
     with pytest.raises(IniError, match=r"\[AXIS_Y\]MAX_VELOCITY: missing"):
         load_ini(p)
-    with pytest.raises(IniError, match="cannot read the LinuxCNC INI file"):
+    with pytest.raises(IniError, match="absent.ini: cannot read this LinuxCNC INI file"):
         load_ini(tmp_path / "absent.ini")
+
+
+def test_the_machine_file_names_the_ini_and_the_ini_describes_the_machine(tmp_path):
+    p = _ini(tmp_path, "MAX_LINEAR_VELOCITY = 45")
+    p.write_text(p.read_text().replace("[AXIS_Z]\n", "[AXIS_Z]\nMIN_LIMIT = -50\nMAX_LIMIT = 0\n")
+                 .replace("SERVO_PERIOD = 1000000", "SERVO_PERIOD = 250000"))
+    m = tmp_path / "m.toml"
+    m.write_text(MACHINE + '\n[linuxcnc]\nini = "m.ini"\n')
+    c = load_config(m)
+    assert c.period_s == 2.5e-4 and c.linuxcnc_ini.max_linear_velocity_mm_s == 45.0
+    assert [(a.max_velocity_mm_s, a.max_accel_mm_s2) for a in c.axes] == [(50, 500), (50, 500), (20, 200)]
+    assert (c.axes[2].min_mm, c.axes[2].max_mm) == (-50.0, 0.0) and c.axes[0].max_mm == 1000.0  # X: the file's
+    m.write_text(MACHINE + '\n[linuxcnc]\nini = "absent.ini"\n')
+    with pytest.raises(ConfigError, match="linuxcnc.ini: .*absent.ini: cannot read this LinuxCNC INI file"):
+        load_config(m)

@@ -17,7 +17,6 @@ from collections import defaultdict
 import numpy as np
 import pytest
 
-from conftest import SHARED_DIR
 from linuxcnc_measured import DATA, measured, measured_waits, profile, twin_run
 
 ROWS = measured()
@@ -28,8 +27,8 @@ SLOW = {"g1_lhchips4", "g5_butterfly_xy"}
 
 def _param(m):
     marks = [pytest.mark.slow] if m.program in SLOW else []
-    if m.source != "own" and not SHARED_DIR.is_dir():
-        marks.append(pytest.mark.skip(reason=f"../shared not found at {SHARED_DIR}: the program lives there"))
+    if not m.path.exists():
+        marks.append(pytest.mark.skip(reason=f"{m.path} not found (../shared, or LinuxCNC's examples, absent)"))
     return pytest.param(m, id=m.id, marks=marks)
 
 

@@ -1,0 +1,110 @@
+"""The analytic path pieces' geometry, compiled: points, tangents and curvature vectors by arc length.
+
+Every analytic piece (a line, a G2/G3 arc or helix, a circular G64 blend; ipo.feed.pieces)
+is p(sigma) = c + r(phi) (cos(phi) e1 + sin(phi) e2) + w sigma with phi = omega sigma and
+r(phi) = radius + dr phi. The planner evaluates it at millions of samples and periods, so the
+formulas live here once, as scalar kernels, with the array forms `evaluate` and `frame` over
+them. `Geometry` is the record the kernels take: the seven arrays of the pieces.
+"""
+from __future__ import annotations
+
+from math import cos, sin
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+
+class Geometry(NamedTuple):
+    """The arrays (P pieces) that define the analytic pieces' shape."""
+
+    c: np.ndarray  # (P, 3)
+    e1: np.ndarray  # (P, 3)
+    e2: np.ndarray  # (P, 3)
+    w: np.ndarray  # (P, 3)
+    radius: np.ndarray
+    dr: np.ndarray
+    omega: np.ndarray
+
+
+@njit(cache=True)
+def point_into(g, i, sigma, out, row):
+    """p(sigma) of piece i into out[row]."""
+    phi = g.omega[i] * sigma
+    r = g.radius[i] + g.dr[i] * phi
+    rc = r * cos(phi)
+    rs = r * sin(phi)
+    for a in range(3):
+        out[row, a] = g.c[i, a] + rc * g.e1[i, a] + rs * g.e2[i, a] + sigma * g.w[i, a]
+
+
+@njit(cache=True)
+def frame_into(g, i, sigma, t, kv, row):
+    """Unit tangent and curvature vector d(tangent)/ds of piece i into t[row], kv[row] (the
+    spiral term dr, at most microns over a whole arc, is left out)."""
+    om = g.omega[i]
+    if om == 0.0:
+        for a in range(3):
+            t[row, a] = g.w[i, a]
+            kv[row, a] = 0.0
+        return
+    phi = om * sigma
+    ro = g.radius[i] * om
+    rk = -(ro * om)
+    cs = cos(phi)
+    sn = sin(phi)
+    for a in range(3):
+        t[row, a] = ro * (cs * g.e2[i, a] - sn * g.e1[i, a]) + g.w[i, a]
+        kv[row, a] = rk * (cs * g.e1[i, a] + sn * g.e2[i, a])
+
+
+@njit(cache=True)
+def _evaluate(g, idx, sigma):
+    out = np.empty((idx.shape[0], 3))
+    for k in range(idx.shape[0]):
+        point_into(g, idx[k], sigma[k], out, k)
+    return out
+
+
+@njit(cache=True)
+def _frame(g, idx, sigma):
+    t = np.empty((idx.shape[0], 3))
+    kv = np.empty((idx.shape[0], 3))
+    for k in range(idx.shape[0]):
+        frame_into(g, idx[k], sigma[k], t, kv, k)
+    return t, kv
+
+
+def evaluate(g: Geometry, idx: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Points (N, 3) of analytic pieces idx at arc lengths sigma."""
+    return _evaluate(g, np.asarray(idx, dtype=np.int64), np.asarray(sigma, dtype=np.float64))
+
+
+def frame(g: Geometry, idx: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit tangents and curvature vectors (N, 3) of analytic pieces idx at arc lengths sigma."""
+    return _frame(g, np.asarray(idx, dtype=np.int64), np.asarray(sigma, dtype=np.float64))
+
+
+@njit(cache=True)
+def _clip(x, lo, hi):
+    """np.clip of one float."""
+    x = x if (x >= lo or x != x) else lo
+    return x if (x <= hi or x != x) else hi
+
+
+@njit(cache=True)
+def points_along(g, pstart, length, sv):
+    """The piece of each arc length sv (pieces starting at pstart; a point exactly on a
+    boundary belongs to the piece it completes) and the point there, as the analytic form
+    gives it (the caller replaces the points of NURBS and blend pieces)."""
+    n = sv.shape[0]
+    loc = np.empty(n, np.int64)
+    pos = np.empty((n, 3))
+    last = pstart.shape[0] - 1
+    for k in range(n):
+        i = min(max(np.searchsorted(pstart, sv[k], side="right") - 1, 0), last)
+        if i > 0 and sv[k] <= pstart[i] + 1e-12:
+            i -= 1
+        loc[k] = i
+        point_into(g, i, _clip(sv[k] - pstart[i], 0.0, length[i]), pos, k)
+    return loc, pos
