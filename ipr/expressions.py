@@ -147,50 +147,83 @@ def _param_at(number: float, params) -> float:
     return params[_check_number(_finite(number))]
 
 
-def _bin(op: str, a: float, b: float) -> float:
-    value = _binary(op, a, b)
-    if not math.isfinite(value):
-        raise BlockError("E-EXPR", f"{op.upper()} overflows")
-    return value
+def _overflow(op: str):
+    raise BlockError("E-EXPR", f"{op.upper()} overflows")
+
+
+def _no_value():
+    raise BlockError("E-EXPR", "expression has no finite value")
 
 
 def _atan(y: float, x: float) -> float:
     return math.degrees(math.atan2(y, x))
 
 
-_SCOPE = {"_finite": _finite, "_param_at": _param_at, "_read": read_param, "_bin": _bin, "_atan": _atan,
-          "_unary": _unary}
+_ARITHMETIC = {"+": "+", "-": "-", "*": "*"}   # Python's own operator, then the finiteness check
+_CHECKED = {"/": "_divide", "mod": "_modulo", "**": "_power"}   # raise their own errors, then the check
+_SCOPE = {"_param_at": _param_at, "_read": read_param, "_atan": _atan, "_unary": _unary, "_overflow": _overflow,
+          "_no_value": _no_value, "_divide": _divide, "_modulo": _modulo, "_power": _power,
+          **{f"_op_{op}": f for op, f in _BINARY.items() if op.isalpha()}}
 
 
-def _source(node) -> str:
-    """Python source computing _evaluate(node) from the parameter table `P`, step for step."""
-    if node.__class__ is float:
-        return repr(node)
-    head = node[0]
-    if head == "#":
-        key = node[1]
-        if key.__class__ is str:
-            return f"P[{key!r}]"
-        if key.__class__ is int and 1 <= key <= MAX_PARAM:
-            return f"P[{key}]"
-        if key.__class__ in (int, float):
-            return f"_read({key!r}, P)"   # raises E-PARAM when it is read, as evaluate does
-        return f"_param_at({_source(key)}, P)"
-    if head == "neg":
-        return f"(-{_source(node[1])})"
-    if head == "exists":
-        return f"P.exists({node[1]!r})"
-    if head == "atan":
-        return f"_atan({_source(node[1])}, {_source(node[2])})"
-    if len(node) == 2:
-        return f"_unary({head!r}, {_source(node[1])})"
-    return f"_bin({head!r}, {_source(node[1])}, {_source(node[2])})"
+class _Writer:
+    """Straight-line Python computing _evaluate(node), step for step in the tree walk's order
+    (left operand, right operand, operator; the same checks, so the same errors)."""
+
+    def __init__(self):
+        self.lines: list[str] = []
+
+    def temp(self, source: str) -> str:
+        name = f"t{len(self.lines)}"
+        self.lines.append(f"    {name} = {source}")
+        return name
+
+    def check(self, name: str, error: str) -> None:
+        self.lines.append(f"    if {name} - {name} != 0.0: {error}")   # inf and nan, not finite numbers
+
+    def value(self, node) -> str:
+        if node.__class__ is float:
+            return repr(node) if math.isfinite(node) else f"float({repr(node)!r})"
+        head = node[0]
+        if head == "#":
+            key = node[1]
+            if key.__class__ is str:
+                return self.temp(f"P[{key!r}]")
+            if key.__class__ is int and 1 <= key <= MAX_PARAM:
+                return self.temp(f"P[{key}]")
+            if key.__class__ in (int, float):
+                return self.temp(f"_read({key!r}, P)")   # raises E-PARAM when it is read, as evaluate does
+            return self.temp(f"_param_at({self.value(key)}, P)")
+        if head == "neg":
+            return self.temp(f"-{self.value(node[1])}")
+        if head == "exists":
+            return self.temp(f"P.exists({node[1]!r})")
+        if head == "atan":
+            y = self.value(node[1])
+            return self.temp(f"_atan({y}, {self.value(node[2])})")
+        if len(node) == 2:
+            return self.temp(f"_unary({head!r}, {self.value(node[1])})")
+        a = self.value(node[1])
+        b = self.value(node[2])
+        if head in _ARITHMETIC:
+            result = self.temp(f"{a} {head} {b}")
+        elif head in _CHECKED:
+            result = self.temp(f"{_CHECKED[head]}({a}, {b})")
+        else:
+            return self.temp(f"_op_{head}({a}, {b})")   # a comparison or logic: 0.0 or 1.0
+        self.check(result, f"_overflow({head!r})")
+        return result
 
 
 def compile_expression(node):
     """A function of the parameter table giving evaluate(node, table): the same value and the
     same errors, without walking the tree each time (a loop body evaluates its lines millions
-    of times). Trees are at most ipr.syntax.MAX_EXPR_DEPTH deep, which Python's parser takes."""
+    of times): one statement per operation, so no depth of tree is too deep for Python's parser."""
     if node.__class__ is float:
         return lambda params: node
-    return eval(f"lambda P: _finite({_source(node)})", dict(_SCOPE))
+    writer = _Writer()
+    result = writer.value(node)
+    writer.check(result, "_no_value()")
+    scope = dict(_SCOPE)
+    exec("def value(P):\n" + "\n".join(writer.lines) + f"\n    return {result}\n", scope)
+    return scope["value"]

@@ -29,7 +29,7 @@ from itertools import repeat
 import numba as nb
 import numpy as np
 
-from ipr.entities import Line, Rapid
+from ipr.entities import Line, Rapid, build_many
 
 # columns of the scanned values and bits of `words`
 X, Y, Z, F = 0, 1, 2, 3
@@ -236,13 +236,13 @@ def run(scanned: Scanned, i: int, line: int, state, out: list) -> int:
     else:
         rows = np.flatnonzero(s.moved[i:j]) + i
         numbers = (rows - i + line).tolist()
-    end = list(map(tuple, s.ends[rows].tolist()))
+    end = list(zip(*s.ends[rows].T.tolist()))   # tuples straight from the columns (no row lists)
     if end:
         start = [pos, *end[:-1]]
         if flags & ALL_G1:
-            out.extend(map(Line, numbers, start, end, s.feeds[rows].tolist(), repeat(path)))
+            out.extend(build_many(Line, len(end), numbers, start, end, s.feeds[rows].tolist(), repeat(path)))
         elif flags & ALL_G0:
-            out.extend(map(Rapid, numbers, start, end, repeat(path)))
+            out.extend(build_many(Rapid, len(end), numbers, start, end, repeat(path)))
         else:
             out.extend(Line(n, a, b, f, path) if k == 10 else Rapid(n, a, b, path) for n, a, b, f, k in
                        zip(numbers, start, end, s.feeds[rows].tolist(), s.motions[rows].tolist()))

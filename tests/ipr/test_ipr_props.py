@@ -316,6 +316,12 @@ def _value_or_error(f):
 
 @SETTINGS
 @given(expression(), st.lists(st.floats(-1e3, 1e3), min_size=5, max_size=5))
+@example("[[EXP[700]*EXP[700]] GT 0]", [0.0] * 5)   # an overflow inside is an error, whatever the result
+@example("[1/[EXP[709]+EXP[709]+EXP[709]]]", [0.0] * 5)   # 1/inf would be 0
+@example("[#1/0]", [0.0] * 5)
+@example("[2**EXP[7]]", [0.0] * 5)
+@example("[#[#1+0.5]]", [0.25] * 5)
+@example("[-#[EXP[800]]]", [0.0] * 5)
 def test_compiled_expressions_equal_the_tree_walk(text: str, values: list[float]) -> None:
     from ipr.expressions import compile_expression, evaluate
     from ipr.modal import ModalState, Setup
