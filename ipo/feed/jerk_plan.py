@@ -12,17 +12,20 @@ always starts at an anchor) and the v^2 it must end with.
    `straight_min_mm` between curved pieces count as curved). Speeds at anchors: at most
    sqrt(x_acc), acceleration zero. x_acc is first held to what the curvature allows with no
    path acceleration, |kv_i| v^2 <= A_i (the look-ahead may ride the curvature cap with some).
-2. Path limits of each gap between anchors: straight, A_i / |t_i| and J_i / |t_i|; curved,
-   the same acceleration with TANGENTIAL_JERK_SHARE of the jerk; each times a scale that starts
-   at 1 (step 4 lowers it).
+2. Path limits of each gap between anchors: A_i / |t_i| and J_i / |t_i|, straight or curved,
+   each times its own scale that starts at 1 (step 4 lowers them: where the curvature's terms
+   leave a curve less, the checks find it with the terms as they are).
 3. Anchor speeds by a backward and a forward pass (jerk_profile.reach), then each gap's peak
    speed (jerk_profile.peak_speed, at most the highest sqrt(x_acc) inside it).
 4. Checks at every sample of every gap, with the segment's own speed, acceleration and jerk
    there: v^2 <= x_acc; |t_i a + kv_i v^2| <= A_i; |t_i j| + 3 |kv_i| v |a| + |kv_i'| v^3 <= J_i
-   (kv' from the neighbouring samples; at a piece joint where the curvature steps the first
-   two within J_i / 2, the caps of ipo.feed.limits holding the step within the other half).
+   (kv' from the neighbouring samples; at a piece joint where the curvature steps by dkv_i,
+   plus the step's STEP_JERK_SHARE v^2 |dkv_i| / T, which ipo.feed.limits' caps hold within
+   J_i / 2).
    A speed over x_acc lowers the peak where a little (_PEAK_GIVE) is enough, else makes the
-   worst sample an anchor; an axis over its limit lowers the gap's scale. Then back to 3,
+   worst sample an anchor; an axis over its acceleration lowers the gap's acceleration scale,
+   over its jerk its jerk scale (and the acceleration's too where the coupling 3 kv_i v a is
+   most of it): a straight next to a curvature step keeps its whole acceleration. Then back to 3,
    until every gap passes.
 """
 from __future__ import annotations
@@ -30,12 +33,16 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ipo.feed.jerk_profile import (TANGENTIAL_JERK_SHARE, peak_speed, phases, reach, reach_down,
-                                   state, time_at, transition_distance)
+from ipo.feed.jerk_profile import peak_speed, phases, reach, reach_down, state, time_at, transition_distance
+from ipo.feed.limits import STEP_JERK_SHARE
 
 _ROUNDS = 40  # of steps 3 and 4; each round fixes something, and scales only fall; after half
 # of them a gap that still fails has every sample as an anchor
 _SCALE_STEP = 0.7
+# what step 4 finds over in a gap; each lowers its own scale (a straight gap that ends next to
+# a curvature step keeps half the jerk there, but not half the acceleration)
+_ACC_OVER = 1
+_JERK_OVER = 2
 # a peak lowered by more than this share to stay under x_acc makes the worst sample an anchor instead
 _PEAK_GIVE = 0.02
 _SLACK = 1e-9
@@ -91,17 +98,16 @@ def _anchors(s, x, curved):
 
 
 @njit(cache=True)
-def _nominal(t, kv, lo, hi, a_axis, j_axis, curved):
+def _nominal(t, lo, hi, a_axis, j_axis):
     """Step 2: the gap's path acceleration and jerk limits before scaling."""
     a = 1e300
     j = 1e300
-    share = TANGENTIAL_JERK_SHARE if curved else 1.0
     for k in range(lo, hi + 1):
         for i in range(3):
             ti = abs(t[k, i])
             if ti > 1e-12:
                 a = min(a, a_axis[i] / ti)
-                j = min(j, share * j_axis[i] / ti)
+                j = min(j, j_axis[i] / ti)
     return a, j
 
 
@@ -128,34 +134,35 @@ def _rate(s, kv, k, i):
 
 @njit(cache=True)
 def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
-    """Some axis over its acceleration or its jerk with the geometry of sample k and the state
-    v, acc, jk (speed, path acceleration and jerk); step: the curvature step per axis where
-    sample k is a piece joint."""
+    """Which limits some axis is over with the geometry of sample k and the state v, acc, jk
+    (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0 if none; step: per axis,
+    STEP_JERK_SHARE |dkv_i| / T where sample k is a piece joint at which the curvature steps
+    by dkv (0 elsewhere). A jerk over its limit mostly through the coupling 3 kv_i v a is the
+    acceleration's to lower too."""
+    over = 0
     for i in range(3):
         if abs(t[k, i] * acc + kv[k, i] * v * v) > a_axis[i] * (1.0 + _SLACK):
-            return True
-        # axis jerk t_i j + 3 kv_i v a + kv_i' v^3: the caps hold the last term within half
-        # of J_i, and a step where pieces meet too, whose jerk the periods around it see
-        # together with the jerk of both sides: there the rest keeps to the other half
-        if step[i] > 0.0:
-            budget = 0.5 * j_axis[i]
-        else:
-            budget = j_axis[i] - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
+            over |= _ACC_OVER
+        # axis jerk t_i j + 3 kv_i v a + kv_i' v^3, and where pieces meet the step's
+        # STEP_JERK_SHARE v^2 |dkv_i| / T, which the periods around the joint see together
+        # with the path's jerk on both sides (the caps hold it within half of J_i; at the
+        # speed the segment has there it is often far less)
+        budget = j_axis[i] - step[i] * v * v - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
         extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
         if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
-            return True
-    return False
+            over |= _JERK_OVER | (_ACC_OVER if extra > 0.5 * budget else 0)
+    return over
 
 
 @njit(cache=True)
-def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
-    """Step 4 for one gap: (worst sample over x_acc or -1, and whether an axis is over). The
+def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period_s):
+    """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
     axes are checked at every sample and, with the geometry of the samples either side, where
     each phase starts (the acceleration peaks between samples)."""
     length = s[hi] - s[lo]
     tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
     worst, worst_ratio = -1, 1.0
-    axis_over = False
+    axis_over = 0
     no_step = np.zeros(3)
     step = np.zeros(3)
     for k in range(lo, hi + 1):
@@ -173,7 +180,7 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved):
         elif k == hi and k + 1 < s.shape[0] and s[k + 1] - s[k] <= _JOINT_MM:
             other = k + 1
         for i in range(3):
-            step[i] = _step(kv, k, other, i)
+            step[i] = STEP_JERK_SHARE * _step(kv, k, other, i) / period_s
         axis_over |= _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step)
     k = lo
     for q in range(1, 7):
@@ -212,7 +219,7 @@ def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
 
 
 @njit(cache=True)
-def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
+def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm, period_s):
     """Anchors (sample indices), their speeds, and per gap the peak speed and the path
     acceleration and jerk limits; converged is False if the rounds ran out."""
     n = s.shape[0]
@@ -223,7 +230,8 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
                 x[k] = min(x[k], (1.0 - 1e-6) * a_axis[i] / abs(kv[k, i]))
     curved = _curved_intervals(s, t, kv, straight_min_mm)
     anchor = _anchors(s, x, curved)
-    scale = np.ones(max(n - 1, 1))
+    scale_a = np.ones(max(n - 1, 1))
+    scale_j = np.ones(max(n - 1, 1))
     # the last gap checked clean from each sample: (end, start and end speed, limits) -> its peak
     ok_hi = np.full(n, -1, np.int64)
     ok_key = np.zeros((n, 4))
@@ -244,9 +252,11 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
         for g in range(m - 1):
             lo, hi = idx[g], idx[g + 1]
             cv[g] = curved[lo] if hi > lo else False
-            a, j = _nominal(t, kv, lo, hi, a_axis, j_axis, cv[g])
-            sc = scale[lo:hi].min() if hi > lo else 1.0
-            ag[g], jg[g] = a * sc, j * sc
+            a, j = _nominal(t, lo, hi, a_axis, j_axis)
+            if hi > lo:
+                a *= scale_a[lo:hi].min()
+                j *= scale_j[lo:hi].min()
+            ag[g], jg[g] = a, j
         # 3. anchor speeds, backward then forward
         u = np.sqrt(np.maximum(x[idx], 0.0))
         u[m - 1] = min(u[m - 1], np.sqrt(max(x_end, 0.0)))
@@ -277,28 +287,32 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm):
                 continue
             top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), base)
             p = peak_speed(w[g], w[g + 1], length, top, ag[g], jg[g])
-            worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis, cv[g])
+            worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis, cv[g],
+                                 period_s)
             if worst >= 0 and p > base:
                 low, high = base, p
                 for _b in range(24):
                     mid = 0.5 * (low + high)
                     if _check(s, t, kv, x, lo, hi, w[g], mid, w[g + 1], ag[g], jg[g], a_axis, j_axis,
-                              cv[g])[0] < 0:
+                              cv[g], period_s)[0] < 0:
                         low = mid
                     else:
                         high = mid
                 if low >= (1.0 - _PEAK_GIVE) * p:  # a slightly lower peak clears it
                     p = low
                     worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis,
-                                         cv[g])
+                                         cv[g], period_s)
             vp[g] = p
-            if (worst >= 0 or over) and rnd >= _ROUNDS // 2:
+            if (worst >= 0 or over != 0) and rnd >= _ROUNDS // 2:
                 anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample
                 changed = True
             elif worst >= 0:
                 changed |= _anchor_peaks(s, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], anchor)
-            if over:
-                scale[lo:hi] *= _SCALE_STEP
+            if over & _ACC_OVER:
+                scale_a[lo:hi] *= _SCALE_STEP
+            if over & _JERK_OVER:
+                scale_j[lo:hi] *= _SCALE_STEP
+            if over != 0:
                 changed = True
             elif worst < 0:
                 ok_hi[lo] = hi

@@ -31,11 +31,6 @@ import numpy as np
 from numba import njit
 
 _BISECT = 60
-# share of each axis jerk limit a curved segment's path jerk starts from (ipo.feed.limits'
-# S-curve caps keep the curvature terms within the other half; ipo.feed.jerk_plan checks the
-# sum with the terms as they are and lowers it where needed)
-TANGENTIAL_JERK_SHARE = 0.5
-_FLOOR = 1e-6  # smallest share of the nominal path limits a curved segment is given
 
 
 @njit(cache=True)

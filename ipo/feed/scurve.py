@@ -20,7 +20,7 @@ from ipo.contracts import LIMIT_ACCEL
 from ipo.errors import SCURVE, IpoError
 from ipo.feed import jerk_plan
 from ipo.feed import lookahead as la
-from ipo.feed.jerk_profile import TANGENTIAL_JERK_SHARE, transition_distance
+from ipo.feed.jerk_profile import transition_distance
 
 _STANDSTILL_X = 1e-12
 _STANDSTILL_V = 1e-6
@@ -28,6 +28,9 @@ _STANDSTILL_V = 1e-6
 # its share of the jerk) rather than as a segment of its own with zero acceleration at both
 # ends (a polyline's micron remnants between blends)
 STRAIGHT_MIN_MM = 0.5
+# the share of the axis jerk a curved gap is taken to keep when judging how far before a
+# window's end its plan still depends on what follows (a longer reach commits less)
+REACH_JERK_SHARE = 0.5
 
 
 class Segments(NamedTuple):
@@ -40,9 +43,9 @@ class Segments(NamedTuple):
     jg: np.ndarray
 
 
-def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segments:
+def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float, line: int) -> Segments:
     """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
-    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM)
+    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM, period_s)
     if not ok:
         raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
     return Segments(idx, w, vp, ag, jg)
@@ -51,7 +54,7 @@ def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, line: int) -> Segmen
 def stop_reach_mm(v_top: float, a_axis: np.ndarray, j_axis: np.ndarray) -> float:
     """Path length in which the machine stops from v_top with the smallest path limits a curve
     leaves it: how far before a window's end its plan still depends on what follows."""
-    return transition_distance(v_top, 0.0, float(a_axis.min()), TANGENTIAL_JERK_SHARE * float(j_axis.min())) + 1e-3
+    return transition_distance(v_top, 0.0, float(a_axis.min()), REACH_JERK_SHARE * float(j_axis.min())) + 1e-3
 
 
 def period_limits(sv: np.ndarray, s_prev: float, period_s: float, s: np.ndarray, cap: np.ndarray,
@@ -96,7 +99,8 @@ def run(planner, win, output, final: bool) -> Iterator:
         x = la.plan(smp.s, smp.t, smp.kv, cap, planner.a_max, planner._ascale(len(smp), cap), win.x0_v2, 0.0)
         x[x < _STANDSTILL_X] = 0.0
         line = int(win.pieces.line[smp.piece[0] - win.piece_base])
-        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)), line)
+        seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)),
+                          planner.T, line)
         m = len(seg.idx)
         if final:
             commit = m - 1
