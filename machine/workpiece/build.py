@@ -33,14 +33,12 @@ def build_workpiece(program, config, start_mm, *, stock_text: str | None = None,
         raise StockError("no stock: give --stock XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX or a [stock] table in the machine file")
     number, source = initial_tool(program, config, tool)
     cutter = cutter_from_table(config.tools, number)
-    if grid_um is not None:
-        grid_mm = grid_um / 1000.0
-    else:
-        fin = config.finishing
-        pick = fin.pick_feed_mm if fin is not None and fin.tool == number else None
-        grid_mm = default_grid_mm(cutter, config.chord_tol_mm, pick)
+    fin = config.finishing
+    pick = fin.pick_feed_mm if fin is not None and fin.tool == number else None
+    grid_mm = grid_um / 1000.0 if grid_um is not None else default_grid_mm(cutter, config.chord_tol_mm, pick)
     grid = Grid.over(stock, grid_mm)
     offset = config.work_offsets_mm.get("G54", (0.0, 0.0, 0.0))
-    wp = Workpiece(stock, grid, cutter, start_mm=start_mm, offset_mm=offset, tools=config.tools, teeth=teeth)
+    wp = Workpiece(stock, grid, cutter, start_mm=start_mm, offset_mm=offset, tools=config.tools, teeth=teeth,
+                   pick_mm=pick)
     text = (f"workpiece: {cutter.describe()} ({source}), grid {grid_mm * 1000:g} um, {grid.nx} x {grid.ny} nodes")
     return wp, text

@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-BISECTIONS = 60  # halvings of [0, 1]: machine precision in t
+BISECTIONS = 32  # halvings of the covering interval: t to 2e-10 of it, where g is flat to far below 1 nm
 TINY_MM2 = 1e-18  # squared horizontal step below which a segment is vertical (below 1 nm)
 
 

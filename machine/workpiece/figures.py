@@ -14,6 +14,12 @@ EVAL_FRACTION = 0.8
 PROFILES = 9
 
 
+def inner(surface: Surface) -> tuple[np.ndarray, np.ndarray]:
+    """Masks of the columns and rows in the middle EVAL_FRACTION of the stock."""
+    (x_lo, x_hi), (y_lo, y_hi) = _window(surface.x_mm), _window(surface.y_mm)
+    return (surface.x_mm >= x_lo) & (surface.x_mm <= x_hi), (surface.y_mm >= y_lo) & (surface.y_mm <= y_hi)
+
+
 def _window(values: np.ndarray) -> tuple[float, float]:
     lo, hi = float(values[0]), float(values[-1])
     margin = 0.5 * (1 - EVAL_FRACTION) * (hi - lo)
@@ -36,7 +42,7 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
         return float(np.median(vals)) if vals else None
 
     across = profile_figures(*profile(surface, across_axis, 0.5 * (a_lo + a_hi), c_lo, c_hi, reference),
-                             form_removed=form_removed)
+                             form_removed=form_removed, periodic=True)
     out = {"grid_um": surface.grid_mm * 1e3, "nodes": int(surface.z_mm.size), "tool": surface.meta.get("tool"),
            "z_min_mm": float(np.min(surface.z_mm)), "z_max_mm": float(np.max(surface.z_mm)),
            "along_rz_um": median("rz_um"), "along_ra_um": median("ra_um"),
@@ -44,7 +50,8 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
            "scallop_um": across.facet_depth_um, "pass_spacing_mm": across.facet_spacing_mm,
            "across_rz_um": across.rz_um}
     r_mm = surface.meta.get("tool_corner_mm") if surface.meta.get("tool_shape") == "ball" else None
-    spacing = pick_mm or across.facet_spacing_mm
+    spacing = pick_mm or surface.meta.get("pick_mm") or across.facet_spacing_mm
+    out["classical_pick_mm"] = spacing
     out["classical_scallop_um"] = classical_scallop_mm(r_mm, spacing) * 1e3 if r_mm and spacing else None
     if reference is not None:
         dev = surface.z_mm - reference
@@ -60,7 +67,9 @@ ROWS = [("grid", "grid_um", "{:g} um"), ("nodes", "nodes", "{:,}"), ("Z min", "z
         ("Z max", "z_max_mm", "{:.4f} mm"), ("along the feed Rz", "along_rz_um", "{:.3f} um"),
         ("along the feed Ra", "along_ra_um", "{:.3f} um"), ("facet spacing", "facet_spacing_mm", "{:.4f} mm"),
         ("facet depth", "facet_depth_um", "{:.3f} um"), ("scallop across the passes", "scallop_um", "{:.3f} um"),
-        ("pass spacing", "pass_spacing_mm", "{:.4f} mm"), ("classical scallop", "classical_scallop_um", "{:.3f} um"),
+        ("pass spacing", "pass_spacing_mm", "{:.4f} mm"),
+        ("classical scallop at pick", "classical_pick_mm", "{:.4f} mm"),
+        ("classical scallop", "classical_scallop_um", "{:.3f} um"),
         ("deviation min", "deviation_min_um", "{:.3f} um"), ("deviation max", "deviation_max_um", "{:.3f} um")]
 
 

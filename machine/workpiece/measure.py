@@ -3,7 +3,7 @@ across the passes and the roughness and facets along them.
 
 Profiles are rows (along X) or columns (along Y) of the Z-map. Along the feed, a profile is measured as
 its deviation from the reference when there is one (the form removed exactly), else from its mean line,
-the ISO 16610-21 Gaussian filter with cut-off CUTOFF_MM (2.5 mm, ISO 4288's for Ra 2-10 um: longer than
+ISO 16610-31's Gaussian regression filter of degree 2 (mean_line_kernel) with cut-off CUTOFF_MM (2.5 mm, ISO 4288's for Ra 2-10 um: longer than
 the chords of a finishing program, so facets stay in the roughness; a fifth of the profile where it is
 shorter than ISO's five cut-offs). Rz is the profile's peak-to-valley, Ra its mean absolute deviation
 from its mean. Facets are the arches between consecutive valleys of the deviation (the tool's path has a
@@ -53,28 +53,70 @@ def profile(surface: Surface, along: str, at_mm: float, lo_mm: float = -math.inf
     return s[keep], d[keep]
 
 
-def detrend(s_mm: np.ndarray, d_mm: np.ndarray) -> np.ndarray:
-    """The profile less its Gaussian mean line (the form, where no reference removes it); nan within one
-    cut-off of either end, where the mean line has no data on one side (ISO 16610-21's end effect)."""
-    from scipy.ndimage import gaussian_filter1d
+def mean_line_kernel(step_mm: float, cutoff_mm: float) -> np.ndarray:
+    """The weights of ISO 16610-31's Gaussian regression filter of degree 2 at a uniform step: at each point
+    the value at it of the quadratic fitted by least squares with the Gaussian weights w(u) of ISO 16610-21
+    (50 % transmission at the cut-off). For a symmetric w that is w(u) (m4 - m2 u^2) / (m0 m4 - m2^2) with
+    the moments m_k = sum w u^k: it passes quadratics unchanged, so a curved form leaves no offset in the
+    roughness (the plain Gaussian's mean line sags by about sigma^2 / 2R into a surface of radius R)."""
+    half = int(math.ceil(cutoff_mm / step_mm))
+    u = step_mm * np.arange(-half, half + 1)
+    w = np.exp(-math.pi * (u / (GAUSS_ALPHA * cutoff_mm)) ** 2)
+    m0, m2, m4 = w.sum(), (w * u**2).sum(), (w * u**4).sum()
+    return w * (m4 - m2 * u**2) / (m0 * m4 - m2 * m2)
 
+
+def detrend(s_mm: np.ndarray, d_mm: np.ndarray) -> np.ndarray:
+    """The profile less its mean line (mean_line_kernel: the form, where no reference removes it); nan
+    within one cut-off of either end, where the mean line has no data on one side (ISO 16610's end
+    effect)."""
     if len(s_mm) < 3:
         return d_mm - d_mm.mean()
     step = float(s_mm[1] - s_mm[0])
     cutoff = min(CUTOFF_MM, (s_mm[-1] - s_mm[0]) / 5.0)
-    sigma = GAUSS_ALPHA * cutoff / math.sqrt(2.0 * math.pi) / step
-    r = d_mm - gaussian_filter1d(d_mm, sigma, mode="nearest")
+    kernel = mean_line_kernel(step, cutoff)
+    if len(kernel) > len(d_mm):
+        return np.full_like(d_mm, np.nan)
+    r = d_mm - np.convolve(d_mm, kernel, mode="same")
     return np.where((s_mm >= s_mm[0] + cutoff) & (s_mm <= s_mm[-1] - cutoff), r, np.nan)
 
 
+def period_mm(s_mm: np.ndarray, r_mm: np.ndarray) -> float | None:
+    """The dominant wavelength of a residual profile (the pass spacing across the passes): the peak of its
+    spectrum between 3 samples and half the cut-off, refined by a parabola through the log power of the
+    peak and its neighbours; None on a profile too short or flat."""
+    keep = np.isfinite(r_mm)
+    r = r_mm[keep] - np.mean(r_mm[keep]) if keep.any() else r_mm[:0]
+    if len(r) < 16 or not np.ptp(r) > NOISE_FLOOR_MM:
+        return None
+    step = float(s_mm[1] - s_mm[0])
+    n = 8 * len(r)  # zero-padded: bins 8 times finer than the profile's length
+    power = np.abs(np.fft.rfft(r * np.hanning(len(r)), n)) ** 2
+    freq = np.fft.rfftfreq(n, step)
+    band = np.nonzero((freq >= 2.0 / CUTOFF_MM) & (freq <= 1.0 / (3.0 * step)))[0]
+    if len(band) < 3:
+        return None
+    k = int(band[np.argmax(power[band])])
+    if 0 < k < len(power) - 1:
+        lo, mid, hi = np.log(power[k - 1:k + 2] + 1e-300)
+        k = k + 0.5 * (lo - hi) / (lo - 2.0 * mid + hi) if lo - 2.0 * mid + hi < 0.0 else k
+    return float(1.0 / (k * (freq[1] - freq[0])))
+
+
 def facets(s_mm: np.ndarray, d_mm: np.ndarray, arch_mm: np.ndarray | None = None,
-           floor_mm: float = NOISE_FLOOR_MM):
+           floor_mm: float = NOISE_FLOOR_MM, period: float | None = None):
     """Valley positions in d_mm, and each arch's height above the chord of its valleys (module docstring),
-    measured on arch_mm (default d_mm): the undetrended profile, so a mean line does not flatten the arches."""
+    measured on arch_mm (default d_mm): the undetrended profile, so a mean line does not flatten the arches.
+    With a known period (the pass spacing) valleys are the lowest points at least 0.6 periods apart that
+    stand out by the noise floor, so that coarse sampling of each arch does not hide every other one."""
     if len(d_mm) < 3:
         return s_mm[:0], np.zeros(0)
     arch = d_mm if arch_mm is None else arch_mm
-    valleys, _ = find_peaks(-d_mm, prominence=max(floor_mm, FACET_PROMINENCE * float(np.ptp(d_mm))))
+    if period:
+        step = float(s_mm[1] - s_mm[0])
+        valleys, _ = find_peaks(-d_mm, distance=max(1, int(0.6 * period / step)), prominence=floor_mm)
+    else:
+        valleys, _ = find_peaks(-d_mm, prominence=max(floor_mm, FACET_PROMINENCE * float(np.ptp(d_mm))))
     depths = []
     for a, b in zip(valleys[:-1], valleys[1:]):
         chord = np.interp(s_mm[a:b + 1], [s_mm[a], s_mm[b]], [arch[a], arch[b]])
@@ -82,17 +124,22 @@ def facets(s_mm: np.ndarray, d_mm: np.ndarray, arch_mm: np.ndarray | None = None
     return s_mm[valleys], np.array(depths)
 
 
-def profile_figures(s_mm: np.ndarray, d_mm: np.ndarray, *, form_removed: bool) -> ProfileFigures:
+def profile_figures(s_mm: np.ndarray, d_mm: np.ndarray, *, form_removed: bool, periodic: bool = False
+                    ) -> ProfileFigures:
+    """Rz, Ra and the facets of a profile; periodic: across the passes (the spacing is the dominant
+    wavelength, period_mm, and the arches are found at it)."""
     r = d_mm if form_removed else detrend(s_mm, d_mm)
     keep = np.isfinite(r)
     s_mm, r, d_mm = s_mm[keep], r[keep], d_mm[keep]
-    at, depth = facets(s_mm, r, d_mm)
+    period = period_mm(s_mm, r) if periodic else None
+    at, depth = facets(s_mm, r, d_mm, period=period)
+    spacing = period if period else float(np.median(np.diff(at))) if len(at) > 1 else None
     return ProfileFigures(
         length_mm=float(np.ptp(s_mm)) if len(s_mm) else 0.0,
         rz_um=float(np.ptp(r) * 1e3) if len(r) else 0.0,
         ra_um=float(np.mean(np.abs(r - r.mean())) * 1e3) if len(r) else 0.0,
         facets=len(depth),
-        facet_spacing_mm=float(np.median(np.diff(at))) if len(at) > 1 else None,
+        facet_spacing_mm=spacing,
         facet_depth_um=float(np.median(depth) * 1e3) if len(depth) else None)
 
 

@@ -1,6 +1,6 @@
 """The surface plot: shaded height, the deviation map in um with its colour bar, and one profile across
 and one along the passes through the middle of the stock (short windows, so that scallops and facets
-show), as deviation from the reference or from the Gaussian mean line."""
+show), as deviation from the reference or from the mean line (measure.detrend)."""
 from __future__ import annotations
 
 import numpy as np
@@ -31,7 +31,7 @@ def plot_surface(surface: Surface, out, *, title: str = "", reference: np.ndarra
     else:
         dev_um = np.vstack([detrend(x, row) for row in z]) * 1e3 if feed_axis == "x" else \
             np.column_stack([detrend(y, col) for col in z.T]) * 1e3
-        label = "height less its Gaussian mean line along the feed, um"
+        label = "height less its mean line along the feed (ISO 16610-31 Gaussian regression), um"
     inner = dev_um[len(y) // 10:len(y) - len(y) // 10, len(x) // 10:len(x) - len(x) // 10]
     lim = float(np.nanpercentile(np.abs(inner), 99.5)) if np.isfinite(inner).any() else 1.0
     im = ax_d.imshow(dev_um, origin="lower", extent=extent, aspect="equal", cmap="RdBu_r", vmin=-lim, vmax=lim)

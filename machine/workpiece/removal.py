@@ -116,7 +116,7 @@ def cut(z, line, tile_max, geo, pos, lines, tool, stamp_first, counts, threads=1
     when of zero length (the tool standing at the stream's start). counts (COUNTS, updated): (block, run)
     pairs, searches, envelopes evaluated, nodes lowered."""
     starts, runs, offsets, listed, touched = plan(pos, tool, *tile_max.shape, geo)
-    parts = [touched[k::threads] for k in range(threads)]
+    parts = [np.ascontiguousarray(touched[k::threads]) for k in range(threads)]
     tallies = [np.zeros(COUNTS, np.int64) for _ in parts]
     args = (z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, offsets, listed)
     if threads == 1:

@@ -53,8 +53,10 @@ class Workpiece:
     """Stock, grid, cutter and the height field; `write(rows)` takes a batch of periods."""
 
     def __init__(self, stock: Stock, grid: Grid, cutter: Cutter, *, start_mm, offset_mm=(0.0, 0.0, 0.0),
-                 tools: dict | None = None, teeth: bool = False, threads: int | None = None):
+                 tools: dict | None = None, teeth: bool = False, threads: int | None = None,
+                 pick_mm: float | None = None):
         self.stock, self.grid, self.cutter = stock, grid, cutter
+        self.pick_mm = pick_mm  # the finishing pick feed for this tool, if the machine file gives one
         self.tools = tools or {}
         self.offset_mm = np.asarray(offset_mm, dtype=float)
         top = float(stock.max_mm[2])
@@ -160,5 +162,5 @@ class Workpiece:
                 "stock_max_mm": list(self.stock.max_mm), "tool": self.cutter.describe(),
                 "tool_shape": self.cutter.shape, "tool_core_mm": self.cutter.core_mm,
                 "tool_corner_mm": self.cutter.corner_mm, "tool_length_mm": self.cutter.length_mm,
-                "flutes": self.cutter.flutes}
+                "flutes": self.cutter.flutes, "pick_mm": self.pick_mm}
         return Surface(self.grid.x_mm, self.grid.y_mm, self.z.astype(np.float64), self.line.copy(), meta)
