@@ -11,8 +11,16 @@ from functools import lru_cache
 
 from ipr.dialect import EXTRA_G, EXTRA_M
 from ipr.errors import BlockError, code_name
+from ipr.gcodes import (BLEND, CANNED_CYCLES, COMP_LEFT, COMP_LEFT_DYNAMIC, COMP_RIGHT, COMP_RIGHT_DYNAMIC,
+                        CYCLE_BORE_DWELL, CYCLE_BORE_MANUAL, CYCLE_BORE_STOP, CYCLE_DRILL_DWELL, CYCLE_PECK,
+                        CYCLE_PECK_CHIPBREAK, CYCLE_TAP, CYCLE_TAP_LEFT, DATA_SET, DWELL, IO_WAIT,
+                        LOCAL_OFFSET, MACHINE_COORDS, MOTION_ARC_CCW, MOTION_ARC_CW, MOTION_CANCEL,
+                        MOTION_LINEAR, MOTION_RAPID, NURBS_FANUC, NURBS_LINUXCNC, NURBS_LINUXCNC_END,
+                        NURBS_MOTIONS, OFFSET_SET, SPINDLE_CSS, SPINDLE_ORIENT, SPLINE_CUBIC,
+                        SPLINE_QUADRATIC, SUBPROGRAM_CALL, TOOL_LENGTH_ADD, TOOL_LENGTH_DYNAMIC,
+                        TOOL_LENGTH_ON, TOOL_NUMBER_SET)
 
-CYCLES = (730, 740, 810, 820, 830, 840, 850, 860, 880, 890)   # canned cycles (ipr.cycles)
+CYCLES = CANNED_CYCLES   # canned cycles (ipr.cycles)
 G_GROUPS: dict[int, str] = {
     0: "motion", 10: "motion", 20: "motion", 30: "motion", 52: "motion", 53: "motion",
     62: "motion", 800: "motion", 50: "motion", 51: "motion", **{c: "motion" for c in CYCLES},
@@ -57,8 +65,9 @@ AXES = "XYZ"
 POLAR = ("@", "^")   # ipr.polar
 _LINEAR_LETTERS = frozenset("XYZFN")
 _ARC_LETTERS = frozenset("XYZIJKRFN")
-NURBS_MOTIONS = (52, 62)
-DWELL_CYCLES = (740, 820, 840, 860, 880, 890)   # cycles that read P (dwell seconds)
+_IJ_MOTIONS = (MOTION_ARC_CW, MOTION_ARC_CCW, SPLINE_CUBIC, SPLINE_QUADRATIC)   # I and J are read
+# cycles that read P (dwell seconds)
+DWELL_CYCLES = (CYCLE_TAP_LEFT, CYCLE_DRILL_DWELL, CYCLE_TAP, CYCLE_BORE_STOP, CYCLE_BORE_MANUAL, CYCLE_BORE_DWELL)
 
 
 class BlockSpec:
@@ -85,22 +94,22 @@ class BlockSpec:
         # the word index of the first polar word (ipr.polar), None without one
         self.polar = min((index[w] for w in POLAR if w in index), default=None)
         # a plain G0/G1 block: the interpreter's short path
-        self.linear = (g.keys() <= {"motion"} and self.motion in (None, 0, 10) and not m
+        self.linear = (g.keys() <= {"motion"} and self.motion in (None, MOTION_RAPID, MOTION_LINEAR) and not m
                        and index.keys() <= _LINEAR_LETTERS)
         # a G2/G3 block with only axis words, one arc format, F and N: ipr.plain's short path
-        self.plain_arc = (g.keys() <= {"motion"} and self.motion in (None, 20, 30) and not m
+        self.plain_arc = (g.keys() <= {"motion"} and self.motion in (None, MOTION_ARC_CW, MOTION_ARC_CCW) and not m
                           and index.keys() <= _ARC_LETTERS and (self.motion is not None or bool(axes))
                           and ("R" in index) != any(k in index for k in "IJK"))
 
     def moves(self, motion: int | None) -> bool:
         """Does the block execute its (modal) motion?"""
-        if self.g.get("nonmodal") in AXIS_NONMODAL or self.g.get("tool_length") == 431:
+        if self.g.get("nonmodal") in AXIS_NONMODAL or self.g.get("tool_length") == TOOL_LENGTH_DYNAMIC:
             return False   # G10, G28, G30, G52, G92 and G43.1 take the axis words
         code = self.g.get("motion")
         if code is not None:
-            if code in (0, 10):
+            if code in (MOTION_RAPID, MOTION_LINEAR):
                 return bool(self.axes) or self.polar is not None   # a bare G0/G1 only sets the mode
-            return code != 800
+            return code != MOTION_CANCEL
         if self.axes or self.polar is not None:
             return True
         if motion in NURBS_MOTIONS:
@@ -118,43 +127,47 @@ def _usage_error(spec: BlockSpec, motion: int | None) -> BlockError | None:
     g, mc = spec.g, spec.m
     moving = spec.moves(motion)
     nonmodal = g.get("nonmodal")
-    takes_axes = nonmodal in AXIS_NONMODAL or g.get("tool_length") == 431
-    if spec.polar is not None and (takes_axes or nonmodal == 530):
-        what = "G53" if nonmodal == 530 else "a code that takes axis words"
+    takes_axes = nonmodal in AXIS_NONMODAL or g.get("tool_length") == TOOL_LENGTH_DYNAMIC
+    if spec.polar is not None and (takes_axes or nonmodal == MACHINE_COORDS):
+        what = "G53" if nonmodal == MACHINE_COORDS else "a code that takes axis words"
         return BlockError("E-POLAR", f"polar coordinates (@, ^) only in motion, not with {what}", spec.polar)
-    if (spec.axes or spec.polar is not None) and not takes_axes and motion in (None, 800, 53):
+    if (spec.axes or spec.polar is not None) and not takes_axes and motion in (None, MOTION_CANCEL, NURBS_LINUXCNC_END):
         raise_at = spec.index[spec.axes[0]] if spec.axes else spec.polar
         letter = spec.axes[0] if spec.axes else next(w for w in POLAR if spec.index.get(w) == spec.polar)
-        what = "G80 cancels motion" if motion == 800 else "no motion mode is active"
+        what = "G80 cancels motion" if motion == MOTION_CANCEL else "no motion mode is active"
         return BlockError("E-NO-MOTION-MODE", f"axis word {letter} but {what}", raise_at)
     m = motion if moving else None
-    m98 = spec.m.get("subprogram") == 980
+    m98 = spec.m.get("subprogram") == SUBPROGRAM_CALL
     if m98 and "P" not in spec.index:
         return BlockError("E-WORD-MISSING", "M98 needs a P word (the subprogram number)", spec.where["subprogram"])
     cycle = m in CYCLES
     io = (mc.get("io") is not None or mc.get("override") is not None or mc.get("user") is not None
-          or mc.get("spindle") == 190 or "dialect_g" in g)   # M19 R (angle) Q (timeout) P (direction)
+          or mc.get("spindle") == SPINDLE_ORIENT or "dialect_g" in g)   # M19 R (angle) Q (timeout) P (direction)
     users = {
-        "I": m in (20, 30, 50, 51), "J": m in (20, 30, 50, 51), "K": m in (20, 30, 62),
-        "R": m in (20, 30, 62) or cycle or nonmodal == 100 or mc.get("spindle") == 190,
+        "I": m in _IJ_MOTIONS, "J": m in _IJ_MOTIONS, "K": m in (MOTION_ARC_CW, MOTION_ARC_CCW, NURBS_FANUC),
+        "R": m in (MOTION_ARC_CW, MOTION_ARC_CCW, NURBS_FANUC) or cycle or nonmodal == DATA_SET
+             or mc.get("spindle") == SPINDLE_ORIENT,
         "E": mc.get("io") is not None or mc.get("user") is not None or "dialect_g" in g,
-        "P": (nonmodal in (40, 100) or g.get("path") == 640 or m in (20, 30, 50, 52, 62)
+        "P": (nonmodal in (DWELL, DATA_SET) or g.get("path") == BLEND
+              or m in (MOTION_ARC_CW, MOTION_ARC_CCW, SPLINE_CUBIC, NURBS_LINUXCNC, NURBS_FANUC)
               or m in DWELL_CYCLES or io or m98),
-        "Q": g.get("path") == 640 or m in (50, 62, 730, 830) or io or mc.get("toolchange") == 610,
-        "L": m == 52 or cycle or nonmodal == 100 or mc.get("io") == 660 or m98,
-        "H": g.get("tool_length") in (430, 432),
-        "D": g.get("comp") in (410, 420, 411, 421) or g.get("spindle_mode") == 960,
+        "Q": (g.get("path") == BLEND or m in (SPLINE_CUBIC, NURBS_FANUC, CYCLE_PECK_CHIPBREAK, CYCLE_PECK) or io
+              or mc.get("toolchange") == TOOL_NUMBER_SET),
+        "L": m == NURBS_LINUXCNC or cycle or nonmodal == DATA_SET or mc.get("io") == IO_WAIT or m98,
+        "H": g.get("tool_length") in (TOOL_LENGTH_ON, TOOL_LENGTH_ADD),
+        "D": (g.get("comp") in (COMP_LEFT, COMP_RIGHT, COMP_LEFT_DYNAMIC, COMP_RIGHT_DYNAMIC)
+          or g.get("spindle_mode") == SPINDLE_CSS),
     }
     for letter, used in users.items():
         if letter in spec.index and not used:
             return BlockError("E-WORD-UNUSED", f"{letter} word is not used by any code in this block",
                               spec.index[letter])
-    if nonmodal == 40 and "P" not in spec.index:
+    if nonmodal == DWELL and "P" not in spec.index:
         return BlockError("E-WORD-MISSING", "G4 dwell needs a P word (seconds)", spec.where["nonmodal"])
-    if nonmodal in (920, 520) and not spec.axes:
+    if nonmodal in (OFFSET_SET, LOCAL_OFFSET) and not spec.axes:
         return BlockError("E-WORD-MISSING", f"G{nonmodal // 10} needs at least one axis word",
                           spec.where["nonmodal"])
-    if nonmodal == 530 and motion not in (0, 10):
+    if nonmodal == MACHINE_COORDS and motion not in (MOTION_RAPID, MOTION_LINEAR):
         return BlockError("E-G53", "G53 needs G0 or G1 motion", spec.where["nonmodal"])
     return None
 
@@ -184,9 +197,9 @@ def analyse(signature: tuple, dialect: str = "linuxcnc") -> BlockSpec | BlockErr
                 suffix = f" ({why})" if why else ""
                 return BlockError(kind, f"unsupported {what} {code_name(letter, value)}{suffix}", i)
             seen = g if letter == "G" else m
-            if group == "motion" and group in seen and 800 in (code, seen[group]):
+            if group == "motion" and group in seen and MOTION_CANCEL in (code, seen[group]):
                 # LinuxCNC (read_g): G80 gives way to another motion code of the block
-                if code == 800:
+                if code == MOTION_CANCEL:
                     continue
                 del seen[group]
             if group in seen:
@@ -205,7 +218,7 @@ def analyse(signature: tuple, dialect: str = "linuxcnc") -> BlockSpec | BlockErr
         return BlockError("E-POLAR", f"polar coordinates (@, ^) and a word {letter} in one block",
                           index[letter])
     nonmodal = g.get("nonmodal")
-    if axes and nonmodal in AXIS_NONMODAL and g.get("motion", 800) != 800:
+    if axes and nonmodal in AXIS_NONMODAL and g.get("motion", MOTION_CANCEL) != MOTION_CANCEL:
         return BlockError("E-AXIS-CONFLICT", f"{code_name('G', nonmodal / 10)} and "
                           f"{code_name('G', g['motion'] / 10)} both use the axis words", where["motion"])
     return BlockSpec(g, m, index, where, axes)

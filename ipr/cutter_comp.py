@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 from ipr.entities import Arc, Line, Rapid
 from ipr.errors import BlockError
+from ipr.gcodes import COMP_LEFT, COMP_LEFT_DYNAMIC, COMP_RIGHT_DYNAMIC
 
 SMALL = 0.05          # TOLERANCE_CONCAVE_CORNER, radians
 EQUAL = 1e-6          # TOLERANCE_EQUAL
@@ -67,9 +68,9 @@ def turn_on(st, spec, vals, radius_of, code: int, notices: list) -> None:
     if st.rotation_deg:
         raise BlockError("E-COMP", "cutter radius compensation in a rotated coordinate system is not supported",
                          where)
-    side = LEFT if code in (410, 411) else RIGHT
+    side = LEFT if code in (COMP_LEFT, COMP_LEFT_DYNAMIC) else RIGHT
     d = vals[spec.index["D"]] if "D" in spec.index else None
-    if code in (411, 421):
+    if code in (COMP_LEFT_DYNAMIC, COMP_RIGHT_DYNAMIC):
         if d is None:
             raise BlockError("E-WORD-MISSING", f"G{code // 10}.1 needs a D word (the tool diameter)", where)
         radius = d * st.unit / 2.0

@@ -20,14 +20,18 @@ from ipr import polar
 from ipr.dialect import dwell_seconds
 from ipr.entities import EXACT_PATH, PLANE_AXES, Dwell, Line, Rapid, Spindle, Stop
 from ipr.errors import BlockError, code_name
+from ipr.gcodes import (CANNED_CYCLES, CYCLE_BORE, CYCLE_BORE_DWELL, CYCLE_BORE_MANUAL, CYCLE_BORE_STOP,
+                        CYCLE_DRILL, CYCLE_DRILL_DWELL, CYCLE_PECK, CYCLE_PECK_CHIPBREAK, CYCLE_TAP,
+                        CYCLE_TAP_LEFT, INVERSE_TIME)
 from ipr.modal import to_machine, to_program
 from ipr.modes import move_feed_mm_s
 
 PECK_CLEARANCE_INCH = 0.010   # LinuxCNC's G73/G83 back-off (parameter_g7x_peck_clearance)
 _AXES = "XYZ"
-_P_CYCLES = (820, 860, 880, 890)   # a P word (dwell) is required when the cycle starts
-_Q_CYCLES = (730, 830)
-_TAPPING = {840: "cw", 740: "ccw"}
+# a P word (dwell) is required when the cycle starts
+_P_CYCLES = (CYCLE_DRILL_DWELL, CYCLE_BORE_STOP, CYCLE_BORE_MANUAL, CYCLE_BORE_DWELL)
+_Q_CYCLES = (CYCLE_PECK_CHIPBREAK, CYCLE_PECK)
+_TAPPING = {CYCLE_TAP: "cw", CYCLE_TAP_LEFT: "ccw"}
 
 
 class CycleMemory(NamedTuple):
@@ -86,7 +90,7 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
     # 1. the conditions of the whole cycle
     if st.feed_mm_s <= 0.0:
         raise BlockError("E-FEED-ZERO", f"{name} feeds with feed rate zero (program an F word)", where)
-    if st.feed_mode == 930:
+    if st.feed_mode == INVERSE_TIME:
         raise BlockError("E-CYCLE", f"{name} cannot run in inverse time feed (G93)", where)
     if st.comp is not None:
         raise BlockError("E-CYCLE", f"{name} cannot run with cutter compensation on (G40 first)", where)
@@ -173,45 +177,45 @@ def run_cycle(st, spec, vals, out: list, notices: list, line: int, motion_before
         _body(em, motion, aa, bb, r, clear, cc, dwell_seconds(dialect, p), q, st)
     st.pos = em.pos
     st.cycle = CycleMemory(motion, r_word, cc_word, p, q, initial)
-    if motion == 880:
+    if motion == CYCLE_BORE_MANUAL:
         notices.append(("N-RECORDED", "G88: the operator retracts by hand after the stop; vcnc shows "
                         "that retract as a rapid to the clear level", where))
 
 
-_ALL = (730, 740, 810, 820, 830, 840, 850, 860, 880, 890)
+_ALL = CANNED_CYCLES
 
 
 def _check_spindle(st, motion: int, name: str, where) -> None:
-    if motion in (860, 880) and st.spindle_dir is None:
+    if motion in (CYCLE_BORE_STOP, CYCLE_BORE_MANUAL) and st.spindle_dir is None:
         raise BlockError("E-SPINDLE", f"{name} needs the spindle turning (M3 or M4)", where)
     if motion in _TAPPING and st.spindle_dir != _TAPPING[motion]:
-        way = "clockwise (M3)" if motion == 840 else "counter-clockwise (M4)"
+        way = "clockwise (M3)" if motion == CYCLE_TAP else "counter-clockwise (M4)"
         raise BlockError("E-SPINDLE", f"{name} taps with the spindle turning {way}", where)
 
 
 def _body(em: _Emitter, motion: int, aa, bb, r, clear, bottom, p, q, st) -> None:
     """One hole, from the R plane (interp_cycles.cc: convert_cycle_g73 .. g89)."""
-    if motion in (730, 830):
+    if motion in (CYCLE_PECK_CHIPBREAK, CYCLE_PECK):
         back = PECK_CLEARANCE_INCH * 25.4 / st.unit
         depth = r - q
         while depth > bottom:
             em.feed_to(aa, bb, depth)
-            if motion == 830:
+            if motion == CYCLE_PECK:
                 em.traverse(aa, bb, r)
             em.traverse(aa, bb, depth + back)
             depth = depth - q
         em.feed_to(aa, bb, bottom)
         em.traverse(aa, bb, clear)
-    elif motion in (810, 820):
+    elif motion in (CYCLE_DRILL, CYCLE_DRILL_DWELL):
         em.feed_to(aa, bb, bottom)
-        if motion == 820:
+        if motion == CYCLE_DRILL_DWELL:
             em.dwell(p)
         em.traverse(aa, bb, clear)
-    elif motion == 850:
+    elif motion == CYCLE_BORE:
         em.feed_to(aa, bb, bottom)
         em.feed_to(aa, bb, r)
         em.traverse(aa, bb, clear)
-    elif motion == 890:
+    elif motion == CYCLE_BORE_DWELL:
         em.feed_to(aa, bb, bottom)
         em.dwell(p)
         em.feed_to(aa, bb, clear)
@@ -231,7 +235,7 @@ def _body(em: _Emitter, motion: int, aa, bb, r, clear, bottom, p, q, st) -> None
         em.feed_to(aa, bb, bottom)
         em.dwell(p)
         em.spindle(None)
-        if motion == 880:
+        if motion == CYCLE_BORE_MANUAL:
             em.out.append(Stop(em.line, optional=False))
         em.traverse(aa, bb, clear)
         em.spindle(way)

@@ -17,6 +17,13 @@ from ipr.entities import (EXACT_PATH, EXACT_STOP, PLANE_AXES, Coolant, Dwell, Li
                           Spindle, Stop, ToolChange)
 from ipr.dialect import allows_zero_normal_offset, dwell_seconds
 from ipr.errors import BlockError
+from ipr.gcodes import (ABSOLUTE, ARC_ABSOLUTE, COMPENSATION_OFF, COOLANT_OFF, DATA_SET, DWELL,
+                        FEED_PER_MINUTE, FLOOD_ON, HOME_G28, HOME_G28_SET, HOME_G30, HOME_G30_SET,
+                        INVERSE_TIME, LOCAL_OFFSET, MACHINE_COORDS, MIST_ON, MOTION_ARC_CCW, MOTION_ARC_CW,
+                        MOTION_LINEAR, MOTION_RAPID, NURBS_FANUC, NURBS_LINUXCNC, NURBS_LINUXCNC_END,
+                        NURBS_MOTIONS, OFFSET_SET, OPTIONAL_STOP, PLANE_XY, PLANE_XZ, PLANE_YZ, PROGRAM_END,
+                        PROGRAM_END_RESET, RETRACT_R, SPINDLE_CCW, SPINDLE_CW, SPINDLE_STOP, SPLINE_CUBIC,
+                        SPLINE_QUADRATIC, TOOL_CHANGE, UNITS_INCH)
 from ipr.mcodes import execute_mcodes
 from ipr.modal import INCH_MM, Setup, Staged, rotate_xy, target, to_machine
 
@@ -24,8 +31,8 @@ from ipr.modal import INCH_MM, Setup, Staged, rotate_xy, target, to_machine
 # milled in one block has a few dozen turns)
 MAX_ARC_TURNS = 1000
 
-_PLANES = {170: "XY", 180: "ZX", 190: "YZ"}
-_SPINDLE = {30: "cw", 40: "ccw", 50: None}
+_PLANES = {PLANE_XY: "XY", PLANE_XZ: "ZX", PLANE_YZ: "YZ"}
+_SPINDLE = {SPINDLE_CW: "cw", SPINDLE_CCW: "ccw", SPINDLE_STOP: None}
 _BASIC_M = {"stop", "coolant"}   # M groups handled here; the rest (and M6's group) in ipr.mcodes
 
 
@@ -46,7 +53,7 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
     _spindle_tool(st, spec, vals, out, notices, line, setup)
     if m.keys() - _BASIC_M or "dialect_g" in g:
         execute_mcodes(st, spec, vals, out, line, setup)
-    if g.get("nonmodal") == 40:
+    if g.get("nonmodal") == DWELL:
         p = vals[idx["P"]]
         if p < 0.0:
             raise BlockError("E-VALUE", f"negative dwell time P{p:g}", idx["P"])
@@ -56,22 +63,23 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
                          spec.where["plane"])
     _modes(st, spec, vals, notices, setup)
     comp = g.get("comp")
-    if comp == 400:
+    if comp == COMPENSATION_OFF:
         cutter_comp.turn_off(st, out)
     elif comp is not None:
         cutter_comp.turn_on(st, spec, vals, lambda t: (offsets.tool_entry(st, setup, t) or (None, None))[1], comp,
                             notices)
     nonmodal = g.get("nonmodal")
-    if st.comp is not None and st.comp.side and (nonmodal in (100, 280, 300, 530, 920, 520) or "g92_apply" in g):
+    breaks_comp = (DATA_SET, HOME_G28, HOME_G30, MACHINE_COORDS, OFFSET_SET, LOCAL_OFFSET)
+    if st.comp is not None and st.comp.side and (nonmodal in breaks_comp or "g92_apply" in g):
         raise BlockError("E-COMP", "G10, G28, G30, G52, G53 and G92 cannot be used with cutter radius "
                          "compensation on (G40 first)", spec.where["nonmodal" if nonmodal else "g92_apply"])
-    if nonmodal == 100:
+    if nonmodal == DATA_SET:
         offsets.g10(st, spec, vals, setup)
-    elif nonmodal in (280, 300):
+    elif nonmodal in (HOME_G28, HOME_G30):
         offsets.stored_return(st, spec, vals, out, line)
-    elif nonmodal in (281, 301):
+    elif nonmodal in (HOME_G28_SET, HOME_G30_SET):
         offsets.store_position(st, spec)
-    elif nonmodal in (920, 520):
+    elif nonmodal in (OFFSET_SET, LOCAL_OFFSET):
         offsets.g92(st, spec, vals)
     if "g92_apply" in g:
         offsets.g92_apply(st, g["g92_apply"])
@@ -85,15 +93,15 @@ def execute_block(st: Staged, spec: BlockSpec, vals: list, out: list, notices: l
         _motion(st, spec, vals, out, notices, line, motion_before, setup.dialect)
     stop = m.get("stop")
     if stop is not None:
-        if stop in (20, 300):
+        if stop in (PROGRAM_END, PROGRAM_END_RESET):
             if st.comp is not None:
                 cutter_comp.flush_all(st, out)
             out.append(ProgramEnd(line))
             st.ended = True
         elif st.comp is not None and st.comp.queue:
-            cutter_comp.hold(st, [Stop(line, optional=stop == 10)])
+            cutter_comp.hold(st, [Stop(line, optional=stop == OPTIONAL_STOP)])
         else:
-            out.append(Stop(line, optional=stop == 10))
+            out.append(Stop(line, optional=stop == OPTIONAL_STOP))
 
 
 def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, setup: Setup) -> None:
@@ -105,7 +113,7 @@ def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, se
         st.spindle_rpm = rpm
     if "T" in idx:
         st.tool_selected = _whole(vals[idx["T"]], "T", idx["T"])
-    if m.get("toolchange") == 60:
+    if m.get("toolchange") == TOOL_CHANGE:
         tool = st.tool_selected
         if tool is None:
             raise BlockError("E-WORD-MISSING", "M6 needs a T word (no tool selected)", spec.where["toolchange"])
@@ -122,8 +130,8 @@ def _spindle_tool(st: Staged, spec: BlockSpec, vals, out, notices, line: int, se
         out.append(Spindle(line, st.spindle_rpm, st.spindle_dir))
     coolant = m.get("coolant")
     if coolant is not None:
-        st.mist = coolant == 70 or (st.mist and coolant != 90)
-        st.flood = coolant == 80 or (st.flood and coolant != 90)
+        st.mist = coolant == MIST_ON or (st.mist and coolant != COOLANT_OFF)
+        st.flood = coolant == FLOOD_ON or (st.flood and coolant != COOLANT_OFF)
         out.append(Coolant(line, st.mist, st.flood))
 
 
@@ -132,7 +140,7 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
     if "plane" in g:
         st.plane = _PLANES[g["plane"]]
     if "units" in g:
-        st.unit = INCH_MM if g["units"] == 200 else 1.0
+        st.unit = INCH_MM if g["units"] == UNITS_INCH else 1.0
     if "tool_length" in g:
         offsets.tool_length(st, spec, vals, notices, setup, g["tool_length"])
     if "coord" in g:
@@ -153,18 +161,18 @@ def _modes(st: Staged, spec: BlockSpec, vals, notices, setup: Setup) -> None:
         st.path = PathControl(False, tol[0], tol[1])
     d = g.get("distance")
     if d is not None:
-        st.absolute = d == 900
+        st.absolute = d == ABSOLUTE
     ad = g.get("arc_distance")
     if ad is not None:
-        st.arc_absolute = ad == 901
+        st.arc_absolute = ad == ARC_ABSOLUTE
     if "retract" in g:
-        st.retract_r = g["retract"] == 990
+        st.retract_r = g["retract"] == RETRACT_R
 
 
 def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_before: int | None,
             dialect: str) -> None:
     motion = st.motion
-    g53 = spec.g.get("nonmodal") == 530
+    g53 = spec.g.get("nonmodal") == MACHINE_COORDS
     if g53 and not st.absolute:
         raise BlockError("E-G53", "G53 cannot be used in G91 (incremental)", spec.where["nonmodal"])
     if motion in CYCLES:
@@ -172,47 +180,48 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
     comp, end = st.comp, None
     if comp is not None:
         where = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
-        if motion not in (0, 10, 20, 30) or g53 or st.feed_mode == 930:
+        plain = motion in (MOTION_RAPID, MOTION_LINEAR, MOTION_ARC_CW, MOTION_ARC_CCW)
+        if not plain or g53 or st.feed_mode == INVERSE_TIME:
             raise BlockError("E-COMP", "under cutter radius compensation only G0, G1, G2 and G3 moves in G94/G95 "
                              "are supported", where)
         end = target(st, spec, vals, comp.programmed)
         if not comp.side:   # the exit move after G40: from the compensated point to the programmed end
-            if motion in (20, 30):
+            if motion in (MOTION_ARC_CW, MOTION_ARC_CCW):
                 raise BlockError("E-COMP", "the first move after G40 cannot be an arc", where)
             st.comp = None
         else:
             return _comp_motion(st, spec, vals, out, notices, line, motion, end, where, dialect)
-    if spec.polar is not None and motion in (50, 51, 52, 62):
+    if spec.polar is not None and motion in (SPLINE_CUBIC, SPLINE_QUADRATIC, NURBS_LINUXCNC, NURBS_FANUC):
         raise BlockError("E-POLAR", "polar coordinates (@, ^) only with G0, G1, G2, G3 and the canned cycles",
                          spec.polar)
-    if motion in (52, 62):
+    if motion in NURBS_MOTIONS:
         if st.rotation_deg:
             raise BlockError("E-OFFSET", "NURBS blocks in a rotated coordinate system (G10 L2 R) are not "
                              "supported", spec.where.get("motion"))
         return nurbs_blocks.start_group(st, spec, vals, line, notices)
-    if motion == 53:
+    if motion == NURBS_LINUXCNC_END:
         raise BlockError("E-NURBS-BLOCK", "G5.3 without an open G5.2 group", spec.where.get("motion"))
     if end is None:
         end = target(st, spec, vals, st.pos, machine=g53)
-    if motion == 0:
+    if motion == MOTION_RAPID:
         out.append(Rapid(line, st.pos, end, st.path))
     else:
         word = spec.where.get("motion", spec.index[spec.axes[0]] if spec.axes else None)
         if st.feed_mm_s <= 0.0:
             raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", word)
-        if motion in (50, 51):
-            if st.feed_mode == 930:
+        if motion in (SPLINE_CUBIC, SPLINE_QUADRATIC):
+            if st.feed_mode == INVERSE_TIME:
                 raise BlockError("E-FEED-MODE", "G5/G5.1 splines in inverse time feed (G93) are not supported",
                                  word)
             out.append(splines.spline(st, spec, vals, motion_before,
                                       modes.move_feed_mm_s(st, spec, vals, word, st.pos, end), line))
             return
-        if motion == 10:
+        if motion == MOTION_LINEAR:
             feed_mm_s = modes.move_feed_mm_s(st, spec, vals, word, st.pos, end)
             out.append(Line(line, st.pos, end, feed_mm_s, st.path))
         else:
             arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices)
-            if st.feed_mode != 940:
+            if st.feed_mode != FEED_PER_MINUTE:
                 arc = replace(arc, feed_mm_s=modes.move_feed_mm_s(st, spec, vals, word, st.pos, end, arc))
             out.append(arc)
     st.pos = end
@@ -220,14 +229,14 @@ def _motion(st: Staged, spec: BlockSpec, vals, out, notices, line: int, motion_b
 
 def _comp_motion(st, spec, vals, out, notices, line: int, motion: int, end, where, dialect: str) -> None:
     """A G0..G3 under compensation (ipr.cutter_comp), `end` the programmed end point."""
-    if motion == 0:
+    if motion == MOTION_RAPID:
         return cutter_comp.straight(st, "rapid", line, end, None, out)
     if st.feed_mm_s <= 0.0:
         raise BlockError("E-FEED-ZERO", "feed move with feed rate zero (program an F word)", where)
     comp, tool_pos = st.comp, st.pos
     start = tool_pos if comp.first else comp.programmed   # rs274's arc_data_comp_ijk / arc_data_ijk
     st.pos = start
-    arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices) if motion != 10 else None
+    arc = _arc(st, spec, vals, end, st.feed_mm_s, line, dialect, notices) if motion != MOTION_LINEAR else None
     st.pos = tool_pos
     feed_mm_s = modes.move_feed_mm_s(st, spec, vals, where, start, end, arc)
     if arc is None:
@@ -258,7 +267,7 @@ def _arc(st: Staged, spec: BlockSpec, vals, end, feed_mm_s: float, line: int, di
             raise BlockError("E-VALUE", f"arc turns P{p:g} must be a whole number from 1 to {MAX_ARC_TURNS}",
                              idx["P"])
         turns = int(p) - 1
-    ccw = st.motion == 30
+    ccw = st.motion == MOTION_ARC_CCW
     if "R" in idx:
         if AXES[a] not in idx and AXES[b] not in idx and spec.polar is None:
             raise BlockError("E-ARC-FORMAT", f"radius-format arc needs {AXES[a]} or {AXES[b]}", idx["R"])

@@ -20,6 +20,7 @@ from ipr.dialect import sender_command
 from ipr.errors import BlockError
 from ipr.execute import execute_block
 from ipr.expressions import evaluate, param_key
+from ipr.gcodes import SUBPROGRAM_RETURN
 from ipr.knockon import KnockOn
 from ipr.memo import ReadLine
 from ipr.plain import step_for
@@ -382,7 +383,7 @@ class Interpreter:
 
 def _subprogram(spec: BlockSpec, vals: list) -> tuple:
     """M98 P<n> [L<count>] -> ("m98", "n", count); M99 -> ("m99",)."""
-    if spec.m["subprogram"] == 990:
+    if spec.m["subprogram"] == SUBPROGRAM_RETURN:
         return ("m99",)
     idx = spec.index
     number, count = vals[idx["P"]], vals[idx["L"]] if "L" in idx else 1.0

@@ -9,6 +9,8 @@ how many errors were left out after each root cause (notice N-KNOCK-ON).
 """
 from __future__ import annotations
 
+from ipr.gcodes import MOTION_RAPID
+
 # error code -> the doubted state it follows from
 _FOLLOWS = {
     "E-NO-MOTION-MODE": "motion", "E-CYCLE": "motion",
@@ -53,7 +55,7 @@ class KnockOn:
         """A block ran: what it set is no longer in doubt."""
         if "motion" in spec.g:
             self.doubt.pop("motion", None)
-            if spec.g["motion"] == 0 and spec.axes:
+            if spec.g["motion"] == MOTION_RAPID and spec.axes:
                 self.doubt.pop("position", None)
         if "F" in spec.index:
             self.doubt.pop("feed", None)

@@ -13,6 +13,8 @@ from __future__ import annotations
 from ipr.dialect import EXTRA_G, EXTRA_M
 from ipr.entities import Auxiliary
 from ipr.errors import BlockError, code_name
+from ipr.gcodes import (IO_OFF, IO_ON, IO_SYNC_OFF, IO_SYNC_ON, MODAL_AUTORESTORE, MODAL_INVALIDATE,
+                        MODAL_RESTORE, MODAL_SAVE, SPINDLE_ORIENT, TOOL_NUMBER_SET)
 
 _IO = {620: "synchronised digital output on", 630: "synchronised digital output off",
        640: "digital output on", 650: "digital output off", 660: "wait on input",
@@ -41,7 +43,7 @@ def execute_mcodes(st, spec, vals, out: list, line: int, setup) -> None:
                                  f"{_words(spec, vals)}".strip()))
     io = m.get("io")
     if io is not None:
-        if io in (620, 630, 640, 650) and "P" not in spec.index:
+        if io in (IO_SYNC_ON, IO_SYNC_OFF, IO_ON, IO_OFF) and "P" not in spec.index:
             raise BlockError("E-WORD-MISSING", f"{code_name('M', io / 10)} needs a P word (output number)",
                              spec.where["io"])
         out.append(Auxiliary(line, code_name("M", io / 10), f"{_IO[io]} {_words(spec, vals)}".strip()))
@@ -55,7 +57,7 @@ def execute_mcodes(st, spec, vals, out: list, line: int, setup) -> None:
             raise BlockError("E-MCODE-USER", f"M{number} is a user M-code that the machine file does not "
                              "name (add it to user_mcodes)", spec.where["user"])
         out.append(Auxiliary(line, f"M{number}", f"{setup.user_mcodes[number]} {_words(spec, vals)}".strip()))
-    if m.get("toolchange") == 610:
+    if m.get("toolchange") == TOOL_NUMBER_SET:
         q = vals[spec.index["Q"]] if "Q" in spec.index else None
         if q is None or q != round(q) or q < 0:
             raise BlockError("E-WORD-MISSING", "M61 needs a whole Q word (the tool in the spindle)",
@@ -63,11 +65,11 @@ def execute_mcodes(st, spec, vals, out: list, line: int, setup) -> None:
         st.tool_in_spindle = st.tool_selected = int(q)
         out.append(Auxiliary(line, "M61", f"tool T{int(q)} is in the spindle (no change)"))
     spindle = m.get("spindle")
-    if spindle == 190:
+    if spindle == SPINDLE_ORIENT:
         out.append(Auxiliary(line, "M19", f"orient the spindle {_words(spec, vals)}".strip()))
-    elif spindle in (700, 730):
+    elif spindle in (MODAL_SAVE, MODAL_AUTORESTORE):
         st.saved_modes = tuple(getattr(st, name) for name in SAVED) + (st.tool_offset,)
-    elif spindle == 720:
+    elif spindle == MODAL_RESTORE:
         if st.saved_modes is None:
             raise BlockError("E-WORD-MISSING", "M72 restores a modal state that no M70 saved",
                              spec.where["spindle"])
@@ -76,5 +78,5 @@ def execute_mcodes(st, spec, vals, out: list, line: int, setup) -> None:
             setattr(st, name, value)
         st.tool_offset = tool_offset
         st.set_offsets()
-    elif spindle == 710:
+    elif spindle == MODAL_INVALIDATE:
         st.saved_modes = None

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from ipr import polar
 from ipr.entities import CONTINUOUS, PathControl
+from ipr.gcodes import FEED_PER_MINUTE
 from ipr.parameters import Parameters
 
 INCH_MM = 25.4
@@ -160,7 +161,7 @@ class Staged:
         base = self._base
         for name, value in self._upd.items():
             setattr(base, name, value)
-        base.detour = base.comp is not None or base.feed_mode != 940 or base.rotation_deg != 0.0
+        base.detour = base.comp is not None or base.feed_mode != FEED_PER_MINUTE or base.rotation_deg != 0.0
         for action in self.after_commit:
             action()
 

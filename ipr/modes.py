@@ -15,6 +15,7 @@ import math
 
 from ipr.entities import PLANE_AXES, Auxiliary
 from ipr.errors import BlockError
+from ipr.gcodes import FEED_PER_MINUTE, FEED_PER_REV, SPINDLE_CSS
 
 
 def set_feed_mode(st, spec, code: int) -> None:
@@ -24,7 +25,7 @@ def set_feed_mode(st, spec, code: int) -> None:
 
 def set_spindle_mode(st, spec, vals, out: list, line: int, code: int) -> None:
     idx = spec.index
-    if code == 960:
+    if code == SPINDLE_CSS:
         if "S" not in idx:
             raise BlockError("E-WORD-MISSING", "G96 needs an S word (surface speed)", spec.where["spindle_mode"])
         max_rpm = vals[idx["D"]] if "D" in idx else 0.0
@@ -40,9 +41,9 @@ def set_spindle_mode(st, spec, vals, out: list, line: int, code: int) -> None:
 
 def move_feed_mm_s(st, spec, vals, where, start, end, arc=None) -> float:
     """The feed of one feed move under the active feed mode (mm/s)."""
-    if st.feed_mode == 940:
+    if st.feed_mode == FEED_PER_MINUTE:
         return st.feed_mm_s
-    if st.feed_mode == 950:
+    if st.feed_mode == FEED_PER_REV:
         if st.css is not None:
             raise BlockError("E-FEED-MODE", "feed per revolution (G95) under constant surface speed "
                              "(G96): the spindle speed depends on the radius, which vcnc does not simulate",

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from ipr.entities import Rapid
 from ipr.errors import BlockError
+from ipr.gcodes import (HOME_G28, HOME_G28_SET, LOCAL_OFFSET, OFFSET_CANCEL, OFFSET_SUSPEND, TOOL_LENGTH_ADD,
+                        TOOL_LENGTH_DYNAMIC, TOOL_LENGTH_OFF, WORK_OFFSET_G59_3)
 from ipr.modal import ZERO3, Setup, target, to_program
 
 COORD_CODES = (540, 550, 560, 570, 580, 590, 591, 592, 593)   # G10 L2 P1..P9
@@ -91,7 +93,7 @@ def g10(st, spec, vals, setup: Setup) -> None:
         if lval == 1:
             length = given[2]
         else:   # L10/L11: the length that makes the current position read Z in G54 (L10) / G59.3 (L11)
-            system = st.coord_offset if lval == 10 else coord_entry(st, setup, 593)[:3]
+            system = st.coord_offset if lval == 10 else coord_entry(st, setup, WORK_OFFSET_G59_3)[:3]
             length = st.pos[2] - system[2] - st.g92[2] - given[2]
     table = dict(st.tool_table)
     table[p] = (length, radius)
@@ -101,7 +103,7 @@ def g10(st, spec, vals, setup: Setup) -> None:
 def stored_return(st, spec, vals, out: list, line: int) -> None:
     """G28/G30: rapid to the intermediate point (the axis words), then to the stored position
     (only the named axes, or all of them when none is named)."""
-    home = st.g28 if spec.g["nonmodal"] == 280 else st.g30
+    home = st.g28 if spec.g["nonmodal"] == HOME_G28 else st.g30
     if spec.axes:
         mid = target(st, spec, vals, st.pos)
         out.append(Rapid(line, st.pos, mid, st.path))
@@ -120,7 +122,7 @@ def store_position(st, spec) -> None:
     """G28.1/G30.1: the current machine position becomes the stored one."""
     if spec.axes:
         raise BlockError("E-OFFSET", "G28.1/G30.1 take no axis words", spec.index[spec.axes[0]])
-    if spec.g["nonmodal"] == 281:
+    if spec.g["nonmodal"] == HOME_G28_SET:
         st.g28 = st.pos
     else:
         st.g30 = st.pos
@@ -132,16 +134,16 @@ def g92(st, spec, vals) -> None:
     gg = list(st.g92)
     here = to_program(st, st.pos)
     for k, v in _given(spec, vals, st.unit).items():
-        gg[k] = v if spec.g["nonmodal"] == 520 else gg[k] + here[k] - v
+        gg[k] = v if spec.g["nonmodal"] == LOCAL_OFFSET else gg[k] + here[k] - v
     st.g92 = st.g92_stored = tuple(gg)
     st.set_offsets()
 
 
 def g92_apply(st, code: int) -> None:
     """G92.1 clears the G92 offset, G92.2 stops applying it, G92.3 applies the kept one."""
-    if code == 921:
+    if code == OFFSET_CANCEL:
         st.g92 = st.g92_stored = ZERO3
-    elif code == 922:
+    elif code == OFFSET_SUSPEND:
         st.g92 = ZERO3
     else:
         st.g92 = st.g92_stored
@@ -151,12 +153,12 @@ def g92_apply(st, code: int) -> None:
 def tool_length(st, spec, vals, notices: list, setup: Setup, code: int) -> None:
     """G43 [H], G43.1 Z (dynamic), G43.2 H (adds a tool's length), G49."""
     idx = spec.index
-    if code == 490:
+    if code == TOOL_LENGTH_OFF:
         st.tool_offset = 0.0
-    elif code == 431:
+    elif code == TOOL_LENGTH_DYNAMIC:
         st.tool_offset = vals[idx["Z"]] * st.unit if "Z" in idx else 0.0
     else:
-        if code == 432 and "H" not in idx:
+        if code == TOOL_LENGTH_ADD and "H" not in idx:
             raise BlockError("E-WORD-MISSING", "G43.2 needs an H word", spec.where["tool_length"])
         h = st.tool_in_spindle
         if "H" in idx:
@@ -172,5 +174,5 @@ def tool_length(st, spec, vals, notices: list, setup: Setup, code: int) -> None:
                                 "length offset", idx.get("H")))
             else:
                 length = entry[0]
-        st.tool_offset = st.tool_offset + length if code == 432 else length
+        st.tool_offset = st.tool_offset + length if code == TOOL_LENGTH_ADD else length
     st.set_offsets()

@@ -18,6 +18,7 @@ from collections.abc import Callable
 
 from ipr.arcs import make_arc
 from ipr.entities import PLANE_AXES, Line, Rapid
+from ipr.gcodes import MOTION_ARC_CCW, MOTION_ARC_CW, MOTION_LINEAR, MOTION_RAPID
 
 _TEMPLATE = """\
 def step(p, n, s, append):
@@ -26,9 +27,9 @@ def step(p, n, s, append):
 {motion}    u = s.unit
 {feed}{move}{commit}    return True
 """
-_MODAL_MOTION = """\
+_MODAL_MOTION = f"""\
     m = s.motion
-    if m != 10 and m != 0:
+    if m != {MOTION_LINEAR} and m != {MOTION_RAPID}:
         return False
 """
 # F read from the line (F is in the units active before the block's G20/G21: none here)
@@ -37,8 +38,8 @@ _LINE_FEED = """\
     if f < 0.0:
         return False
 """
-_ZERO_FEED = """\
-    if m == 10 and f == 0.0:
+_ZERO_FEED = f"""\
+    if m == {MOTION_LINEAR} and f == 0.0:
         return False
 """
 _MOVE = """\
@@ -50,8 +51,9 @@ _MOVE = """\
         end = ({incremental},)
 {append}    s.pos = end
 """
-_APPEND = {0: "    append(Rapid(n, pos, end, s.path))\n", 10: "    append(Line(n, pos, end, f, s.path))\n",
-           None: "    if m == 10:\n        append(Line(n, pos, end, f, s.path))\n"
+_APPEND = {MOTION_RAPID: "    append(Rapid(n, pos, end, s.path))\n",
+           MOTION_LINEAR: "    append(Line(n, pos, end, f, s.path))\n",
+           None: f"    if m == {MOTION_LINEAR}:\n        append(Line(n, pos, end, f, s.path))\n"
                  "    else:\n        append(Rapid(n, pos, end, s.path))\n"}
 
 
@@ -76,7 +78,7 @@ def compile_step(motion: int | None, f_part: int | None,
     has passed, and only what the shape changes (the modal feed is never negative)."""
     absolute, incremental = _end_sources(axis_parts)
     feed = _LINE_FEED.format(f_part=f_part) if f_part is not None else "    f = s.feed_mm_s\n"
-    if axis_parts and motion != 0:
+    if axis_parts and motion != MOTION_RAPID:
         feed += _ZERO_FEED
     move = _MOVE.format(absolute=absolute, incremental=incremental, append=_APPEND[motion]) if axis_parts else ""
     commit = ("    s.feed_mm_s = f\n" if f_part is not None else "") + ("    s.motion = m\n" if motion is not None else "")
@@ -102,7 +104,7 @@ def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[in
         if s.nurbs is not None or s.arc_absolute or s.detour:
             return False
         m = s.motion if motion is None else motion
-        if m != 20 and m != 30:
+        if m != MOTION_ARC_CW and m != MOTION_ARC_CCW:
             return False
         u = s.unit
         f = float(p[f_part]) * u / 60.0 if f_part is not None else s.feed_mm_s
@@ -119,9 +121,9 @@ def compile_arc_step(motion: int | None, f_part: int | None, axis_parts: dict[in
         if r_part is None:
             center = (pos[a] + (float(p[offset_parts[a]]) * u if a in offset_parts else 0.0),
                       pos[b] + (float(p[offset_parts[b]]) * u if b in offset_parts else 0.0))
-            arc = make_arc(n, pos, end, s.plane, m == 30, f, s.path, center_ab=center, word=word, unit_mm=u)
+            arc = make_arc(n, pos, end, s.plane, m == MOTION_ARC_CCW, f, s.path, center_ab=center, word=word, unit_mm=u)
         else:
-            arc = make_arc(n, pos, end, s.plane, m == 30, f, s.path, radius_mm=float(p[r_part]) * u,
+            arc = make_arc(n, pos, end, s.plane, m == MOTION_ARC_CCW, f, s.path, radius_mm=float(p[r_part]) * u,
                            word=word, unit_mm=u)
         append(arc)
         s.pos = end

@@ -30,6 +30,7 @@ import numba as nb
 import numpy as np
 
 from ipr.entities import Line, Rapid, build_many
+from ipr.gcodes import MOTION_LINEAR, MOTION_RAPID
 
 # columns of the scanned values and bits of `words`
 X, Y, Z, F = 0, 1, 2, 3
@@ -163,7 +164,7 @@ def execute(plain, motion, words, values, ends, feeds, motions, moved, i0, absol
     while i < len(plain) and plain[i]:
         w = words[i]
         mk = motion[i] if w & HAS_G else m
-        if mk != 10 and mk != 0:
+        if mk != MOTION_LINEAR and mk != MOTION_RAPID:
             break
         fk = f
         if w & 8:
@@ -171,7 +172,7 @@ def execute(plain, motion, words, values, ends, feeds, motions, moved, i0, absol
             if fk < 0.0:
                 break
         has_axes = (w & 7) != 0
-        if has_axes and mk == 10 and fk == 0.0:
+        if has_axes and mk == MOTION_LINEAR and fk == 0.0:
             break
         if has_axes:
             if absolute:
@@ -188,7 +189,7 @@ def execute(plain, motion, words, values, ends, feeds, motions, moved, i0, absol
                     p1 = p1 + values[i, Y] * unit
                 if w & 4:
                     p2 = p2 + values[i, Z] * unit
-            flags &= ~(ALL_G0 if mk == 10 else ALL_G1)
+            flags &= ~(ALL_G0 if mk == MOTION_LINEAR else ALL_G1)
         else:
             flags &= ~ALL_MOVED
         moved[i] = has_axes
@@ -244,7 +245,7 @@ def run(scanned: Scanned, i: int, line: int, state, out: list) -> int:
         elif flags & ALL_G0:
             out.extend(build_many(Rapid, len(end), numbers, start, end, repeat(path)))
         else:
-            out.extend(Line(n, a, b, f, path) if k == 10 else Rapid(n, a, b, path) for n, a, b, f, k in
+            out.extend(Line(n, a, b, f, path) if k == MOTION_LINEAR else Rapid(n, a, b, path) for n, a, b, f, k in
                        zip(numbers, start, end, s.feeds[rows].tolist(), s.motions[rows].tolist()))
         state.pos = end[-1]
     state.feed_mm_s = float(s.feeds[j - 1])

@@ -14,6 +14,7 @@ import numpy as np
 
 from ipr.entities import Nurbs
 from ipr.errors import BlockError
+from ipr.gcodes import SPLINE_CUBIC
 from ipr.modal import rotate_xy, target
 from ipr.nurbs_groups import _frozen
 
@@ -21,7 +22,7 @@ from ipr.nurbs_groups import _frozen
 def spline(st, spec, vals, motion_before: int | None, feed_mm_s: float, line: int) -> Nurbs:
     """The Nurbs of a G5/G5.1 block (ends at the block's X Y)."""
     idx, where = spec.index, spec.where.get("motion")
-    cubic = st.motion == 50
+    cubic = st.motion == SPLINE_CUBIC
     name = "G5" if cubic else "G5.1"
     if st.plane != "XY":
         raise BlockError("E-ARC-FORMAT", f"{name} splines lie in the XY plane (G17 first)", where)
@@ -37,7 +38,7 @@ def spline(st, spec, vals, motion_before: int | None, feed_mm_s: float, line: in
             raise BlockError("E-WORD-MISSING", "G5 needs P and Q (the end's control point)", where)
         if "I" in idx:
             i, j = vals[idx["I"]] * u, vals[idx["J"]] * u
-        elif motion_before == 50 and st.spline_pq is not None:
+        elif motion_before == SPLINE_CUBIC and st.spline_pq is not None:
             i, j = -st.spline_pq[0], -st.spline_pq[1]
         else:
             raise BlockError("E-WORD-MISSING", "G5 needs I and J unless it follows another G5", where)

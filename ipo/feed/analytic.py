@@ -14,6 +14,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ipo.feed.lookahead import search_right_from
+
 
 class Geometry(NamedTuple):
     """The arrays (P pieces) that define the analytic pieces' shape."""
@@ -101,8 +103,11 @@ def points_along(g, pstart, length, sv):
     loc = np.empty(n, np.int64)
     pos = np.empty((n, 3))
     last = pstart.shape[0] - 1
+    j, before = 0, np.nan
     for k in range(n):
-        i = min(max(np.searchsorted(pstart, sv[k], side="right") - 1, 0), last)
+        j = search_right_from(pstart, sv[k], j, before)
+        before = sv[k]
+        i = min(max(j - 1, 0), last)
         if i > 0 and sv[k] <= pstart[i] + 1e-12:
             i -= 1
         loc[k] = i

@@ -111,6 +111,20 @@ def np_min(a, b):
 
 
 @njit(cache=True)
+def search_right_from(a, x, j, x_before):
+    """np.searchsorted(a, x, side="right") for an ascending a, given j, its value for
+    x_before: a walk on from j when x >= x_before (periods come in time and path order),
+    else the binary search. Over a batch of ascending x the walk costs O(len(x) + the
+    samples passed) instead of a search of the whole window per period."""
+    if not x >= x_before:  # a step back, or NaN on either side
+        return np.searchsorted(a, x, side="right")
+    n = a.shape[0]
+    while j < n and a[j] <= x:
+        j += 1
+    return j
+
+
+@njit(cache=True)
 def _sample_times(s, x):
     n = s.shape[0]
     tc = np.empty(n)
@@ -145,8 +159,11 @@ def positions_at(times, s, x, tc):
     pos = np.empty(n)
     ks = np.empty(n, np.int64)
     last = s.shape[0] - 2
+    j, before = 0, np.nan
     for i in range(n):
-        k = min(max(np.searchsorted(tc, times[i], side="right") - 1, 0), last)
+        j = search_right_from(tc, times[i], j, before)
+        before = times[i]
+        k = min(max(j - 1, 0), last)
         tau = times[i] - tc[k]
         ds = s[k + 1] - s[k]
         v0 = np.sqrt(np_max(x[k], 0.0))
