@@ -152,6 +152,8 @@ def _relax(j, z, q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho
     r = fitting_rho(path, count, c, tol_mm, curve)
     if r <= 0.0:
         return False
+    if ins[j] >= INF:  # nothing reaches j (yet): no state to follow
+        return True
     cost = follow(ins_from[j] < 0, ctrl[j], pt[j], rho[j], state[j], c, r, new)
     if cost > 0 and ins[j] + cost < ins[z]:
         ins[z] = ins[j] + cost
@@ -222,6 +224,7 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
                 ins[z] = out[vert[z]] + OPEN_COST
                 ins_from[z] = -1
                 state[z] = 0.0
+                rho[z] = 0.0  # no span before: follow's sign that the group opens here
             args = (q, pos, pt, tan, role, tol_mm, gap_mm, ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
             # the farthest position with a start that fits: from the previous position's, doubling
             # steps back while spans fit (or forward while they do not), then halving
@@ -274,6 +277,8 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
                     ins[z] = ins[best] + CORNER_COST
                     ins_from[z] = -2 - best
                     state[z] = state[best]
+                    ctrl[z] = ctrl[best]
+                    rho[z] = rho[best]
             if is_end[v]:
                 close = CLOSE_COST + (restore_cost if v == n_pts - 1 else 0)
                 if ins[best] + close < out[v]:

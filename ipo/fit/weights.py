@@ -22,26 +22,47 @@ takes a knot of multiplicity 2 instead (it becomes a control point: one block mo
 the run, its x and its intervals start again; the weights' scale cannot, the point is
 shared).
 
+The controller's feed stage gives the curve the same speed |C'(u)| on both sides of every
+C0 knot (ipo.feed.split.even_speed) by scaling all the knots after it, so the scales of
+the runs compound along a group: a g1_lhchips4 group written with knots up to 1380 was
+followed with knots up to 5.6e14 and intervals of 2e-8, which double precision cannot
+table. The state therefore also follows the intervals as the feed stage evens them (log
+g: at a C0 knot the speed before it, 2 (w_k / E) |J - C_k| / h_k, The NURBS Book eq. 4.9
+at a clamped end, is the speed after it, 2 (w_k+1 / E) |C_k+1 - J| / h_k+1), and their
+spread over the group is bounded by LOG_EVEN_SPREAD.
+
 The state of a path at a junction (STATE values): x, log E, log w of the span into it,
 log h of that span (relative to its run's first), the group's smallest and largest
-log weight, and the run's smallest and largest log interval.
+log weight, the run's smallest and largest log interval, log g of that span and the
+group's smallest and largest log g.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
-STATE = 8
-X, LOG_E, LOG_W, LOG_H, W_LO, W_HI, H_LO, H_HI = range(STATE)
-LOG_WEIGHT_SPREAD = np.log(1e9)  # largest / smallest weight of a group
+STATE = 11
+X, LOG_E, LOG_W, LOG_H, W_LO, W_HI, H_LO, H_HI, LOG_G, G_LO, G_HI = range(STATE)
+LOG_WEIGHT_SPREAD = np.log(1e6)  # largest / smallest weight of a group
 LOG_INTERVAL_SPREAD = np.log(1e4)  # longest / shortest knot interval of a run
+# longest / shortest knot interval of a group as the feed stage evens it: 1e14 let one reach 1.6e-13
+# of its last knot (refused), 1e10 passed; 1e8 keeps a margin
+LOG_EVEN_SPREAD = np.log(1e8)
 LAMBDA_MIN = 1e-3  # a junction closer to a control point (fraction of the leg) takes a double knot
+# E_k+1 / E_k of one span, either way: the span's speed in its parameter changes by this factor
+# (times its arms' ratio) from one end to the other; the controller's arc-length table
+# (ipo.feed.sampling) refuses a curve that moves too unevenly in u. A run's first span can
+# always keep it: |2 log rho| <= 2 log 20 (ipo.fit.conic's RHO_MAX) is below it
+LOG_SPAN_E_STEP = np.log(1e3)
 
 
 @njit(cache=True)
-def _start_run(prev, rho, out):
-    """A run's first span from a junction of state prev: x_1 brings E back to the group's first."""
-    x = min(rho * rho, rho * np.exp(-0.5 * prev[LOG_E]))
+def _start_run(c_prev, j, rho_prev, prev, c, rho, out):
+    """A run's first span from junction j, after a span of control point c_prev, weight rho_prev and
+    state prev (rho_prev = 0: the group opens at j): x_1 brings E back towards the group's first (by
+    at most LOG_SPAN_E_STEP); g_1 keeps the speed on both sides of j. Whether the spreads allow it."""
+    step = min(max(-prev[LOG_E], -LOG_SPAN_E_STEP), LOG_SPAN_E_STEP)
+    x = min(rho * rho, rho * np.exp(0.5 * step))
     out[X] = x
     out[LOG_W] = prev[LOG_E] + np.log(x)
     out[LOG_E] = prev[LOG_E] + 2.0 * np.log(x) - 2.0 * np.log(rho)
@@ -50,7 +71,14 @@ def _start_run(prev, rho, out):
     out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
     out[H_LO] = 0.0
     out[H_HI] = 0.0
-    return out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD
+    if rho_prev > 0.0:
+        before = rho_prev * rho_prev / prev[X] * np.sqrt((j - c_prev) @ (j - c_prev))
+        out[LOG_G] = prev[LOG_G] + np.log(x * np.sqrt((c - j) @ (c - j)) / before)
+    else:
+        out[LOG_G] = 0.0
+    out[G_LO] = min(prev[G_LO], out[LOG_G])
+    out[G_HI] = max(prev[G_HI], out[LOG_G])
+    return out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[G_HI] - out[G_LO] <= LOG_EVEN_SPREAD
 
 
 @njit(cache=True)
@@ -63,8 +91,9 @@ def junction_lambda(c_prev, j, c):
 @njit(cache=True)
 def follow(run_start, c_prev, j, rho_prev, prev, c, rho, out):
     """The state after a span (control point c, weight rho) that follows junction j (reached by a span
-    of control point c_prev, weight rho_prev, state prev; or the start of a run) into out, and its
-    blocks: 1 (it continues the run), 2 (a double knot at j), 0 (the weights cannot carry it)."""
+    of control point c_prev, weight rho_prev, state prev; run_start: j is a corner, or the group
+    opens there with rho_prev = 0) into out, and its blocks: 1 (it continues the run, or starts
+    one at j), 2 (a double knot at j), 0 (the weights cannot carry it)."""
     if not run_start:
         lam = junction_lambda(c_prev, j, c)
         if LAMBDA_MIN <= lam <= 1.0 - LAMBDA_MIN:
@@ -79,9 +108,14 @@ def follow(run_start, c_prev, j, rho_prev, prev, c, rho, out):
                 out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
                 out[H_LO] = min(prev[H_LO], out[LOG_H])
                 out[H_HI] = max(prev[H_HI], out[LOG_H])
-                if out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD:
+                out[LOG_G] = prev[LOG_G] + out[LOG_H] - prev[LOG_H]
+                out[G_LO] = min(prev[G_LO], out[LOG_G])
+                out[G_HI] = max(prev[G_HI], out[LOG_G])
+                if (out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD
+                        and out[G_HI] - out[G_LO] <= LOG_EVEN_SPREAD
+                        and abs(out[LOG_E] - prev[LOG_E]) <= LOG_SPAN_E_STEP):
                     return 1
-    if not _start_run(prev, rho, out):
+    if not _start_run(c_prev, j, rho_prev, prev, c, rho, out):
         return 0
     return 1 if run_start else 2
 

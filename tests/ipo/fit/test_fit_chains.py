@@ -251,3 +251,32 @@ def test_g5_2_leaves_paths_that_leave_the_xy_plane():
     out, rep = convert_text(src, 0.01, jobs=1, dialect="g5.2")
     assert out == src and rep.groups == 0
     assert "XY plane" in rep.kept_g01[0][1]
+
+
+def test_fitted_corpus_program_passes_the_controllers_check(tmp_path):
+    """Every G06.2 group vcnc fit writes for LinuxCNC's lhchips4 (CAM output; its first 1400 lines)
+    at 5 um can be followed: the controller's whole-program check (machine.check) accepts the program,
+    and the knots as the feed stage evens the speed at C0 knots (ipo.feed.split.even_speed) keep
+    intervals double precision resolves. Before, spans changed their end weights 1e9-fold (refused:
+    E-NURBS-PATH) and the evened knots of one group ran to 1e-25 of its length (the run faulted)."""
+    from conftest import require_corpus
+    from ipo.config import default_config
+    from ipo.feed.split import even_speed
+    from machine.check import check_program
+
+    path = require_corpus() / "g1_lhchips4.ngc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent")
+    text = "\n".join(path.read_text().split("\n")[:1400]) + "\nM2\n"
+    out, rep = convert_text(text, 0.005, jobs=1)
+    assert rep.groups >= 5
+    fitted = tmp_path / "fitted.ngc"
+    fitted.write_text(out)
+    config = default_config()
+    check_program(fitted, config, np.array([a.min_mm for a in config.axes]),
+                  np.array([a.max_mm for a in config.axes]))
+    for e in parse_text(out).entities:
+        if isinstance(e, Nurbs):
+            knots = np.asarray(even_speed(e).knots)
+            steps = np.diff(knots)
+            assert steps[steps > 0].min() >= 1e-11 * (knots[-1] - knots[0]), e.line
