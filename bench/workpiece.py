@@ -85,7 +85,9 @@ def program_rows(quick: bool) -> None:
         rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(f"{name:16s} {r0.periods:8d} {r0.wall_s:7.2f} {wp.wall_s:9.2f} {wp.wall_s / r0.wall_s:6.2f} "
               f"{bare_cpu:7.2f} {wp.cpu_s:7.2f} {wp.nodes_lowered / wp.wall_s:9.3g} "
-              f"{wp.nodes_evaluated / r0.periods:7.0f} {zmap_mb:7.1f} {rss_mb:7.0f}  ({text})")
+              f"{wp.nodes_evaluated / r0.periods:7.0f} {zmap_mb:7.1f} {rss_mb:7.0f}  ({text.splitlines()[0]})")
+        for note in text.splitlines()[1:]:  # the workpiece's warnings (a tip starting inside the stock)
+            print(f"{'':16s} {note}")
         if name.startswith("finish"):
             ref = panel_z(*np.meshgrid(surf.x_mm, surf.y_mm))
             figs = [profile_figures(*profile(surf, "x", y, 10.0, 110.0, ref), form_removed=True)

@@ -2,6 +2,8 @@
 program's first T… M6 or the finishing section, the grid from --grid-um or the documented rule."""
 from __future__ import annotations
 
+import numpy as np
+
 from ipr.entities import MOTION_TYPES, ToolChange
 from machine.workpiece.stock import Grid, Stock, StockError, default_grid_mm
 from machine.workpiece.tool import ToolError, cutter_from_table
@@ -41,4 +43,15 @@ def build_workpiece(program, config, start_mm, *, stock_text: str | None = None,
     wp = Workpiece(stock, grid, cutter, start_mm=start_mm, offset_mm=offset, tools=config.tools, teeth=teeth,
                    pick_mm=pick)
     text = (f"workpiece: {cutter.describe()} ({source}), grid {grid_mm * 1000:g} um, {grid.nx} x {grid.ny} nodes")
-    return wp, text
+    return wp, text + start_inside(wp.tip(np.asarray(start_mm, dtype=float)), stock)
+
+
+def start_inside(tip_mm, stock: Stock) -> str:
+    """A warning when the tool's tip starts inside the stock (the start position and the tool's length put it
+    there): the first motion cuts from that point, as it would crash on the machine."""
+    inside = all(lo <= v <= hi for v, lo, hi in zip(tip_mm[:2], stock.min_mm[:2], stock.max_mm[:2]))
+    if not (inside and tip_mm[2] < stock.max_mm[2]):
+        return ""
+    return (f"\nwarning: the tool's tip starts {stock.max_mm[2] - tip_mm[2]:.3f} mm below the stock's top, at "
+            f"X{tip_mm[0]:.3f} Y{tip_mm[1]:.3f} Z{tip_mm[2]:.3f} (work): the first motion cuts from there; "
+            f"check the stock, the work offset and the tool's length")

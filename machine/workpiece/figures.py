@@ -51,7 +51,7 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
            "across_rz_um": across.rz_um}
     r_mm = surface.meta.get("tool_corner_mm") if surface.meta.get("tool_shape") == "ball" else None
     spacing = pick_mm or surface.meta.get("pick_mm") or across.facet_spacing_mm
-    out["classical_pick_mm"] = spacing
+    out["classical_pick_mm"] = spacing if r_mm else None
     out["classical_scallop_um"] = classical_scallop_mm(r_mm, spacing) * 1e3 if r_mm and spacing else None
     if reference is not None:
         dev = surface.z_mm - reference
@@ -68,7 +68,7 @@ ROWS = [("grid", "grid_um", "{:g} um"), ("nodes", "nodes", "{:,}"), ("Z min", "z
         ("along the feed Ra", "along_ra_um", "{:.3f} um"), ("facet spacing", "facet_spacing_mm", "{:.4f} mm"),
         ("facet depth", "facet_depth_um", "{:.3f} um"), ("scallop across the passes", "scallop_um", "{:.3f} um"),
         ("pass spacing", "pass_spacing_mm", "{:.4f} mm"),
-        ("classical scallop at pick", "classical_pick_mm", "{:.4f} mm"),
+        ("pick (classical scallop)", "classical_pick_mm", "{:.4f} mm"),
         ("classical scallop", "classical_scallop_um", "{:.3f} um"),
         ("deviation min", "deviation_min_um", "{:.3f} um"), ("deviation max", "deviation_max_um", "{:.3f} um")]
 

@@ -133,7 +133,8 @@ def profile_figures(s_mm: np.ndarray, d_mm: np.ndarray, *, form_removed: bool, p
     s_mm, r, d_mm = s_mm[keep], r[keep], d_mm[keep]
     period = period_mm(s_mm, r) if periodic else None
     at, depth = facets(s_mm, r, d_mm, period=period)
-    spacing = period if period else float(np.median(np.diff(at))) if len(at) > 1 else None
+    # a spacing only where arches stand out of the float32 noise (a slot's flat floor has none)
+    spacing = (period or float(np.median(np.diff(at)))) if np.any(depth > NOISE_FLOOR_MM) else None
     return ProfileFigures(
         length_mm=float(np.ptp(s_mm)) if len(s_mm) else 0.0,
         rz_um=float(np.ptp(r) * 1e3) if len(r) else 0.0,

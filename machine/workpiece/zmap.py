@@ -63,7 +63,7 @@ class Workpiece:
         self.z = np.full((grid.ny, grid.nx), top, dtype=np.float32)
         self.line = np.zeros((grid.ny, grid.nx), dtype=np.int32)
         self._tile_max = np.full((-(-grid.ny // TILE), -(-grid.nx // TILE)), top)
-        self._last = self._tip(np.asarray(start_mm, dtype=float)[None, :])
+        self._last = self.tip(np.asarray(start_mm, dtype=float)[None, :])
         self._stamped = False
         self.teeth = teeth  # cut with the flutes' edges at the rows' spindle angles (tooth-pass marks)
         self._spindle = np.zeros(1)
@@ -75,7 +75,8 @@ class Workpiece:
         self.counts = np.zeros(COUNTS, np.int64)  # see removal.cut
         self.periods = 0
 
-    def _tip(self, pos_mm: np.ndarray) -> np.ndarray:
+    def tip(self, pos_mm: np.ndarray) -> np.ndarray:
+        """The cutting tip in work coordinates for the drive's positions (machine coordinates, gauge line)."""
         return pos_mm - self.offset_mm - np.array([0.0, 0.0, self.cutter.length_mm])
 
     @contextmanager
@@ -92,7 +93,7 @@ class Workpiece:
         if not len(rows["pos_mm"]):
             return
         with self._timed():
-            pos = self._tip(np.asarray(rows["pos_mm"], dtype=float))
+            pos = self.tip(np.asarray(rows["pos_mm"], dtype=float))
             lines = np.asarray(rows["line"], dtype=np.int32)
             self.periods += len(pos)
             if self.teeth:

@@ -331,3 +331,17 @@ def test_the_tip_cuts_where_the_tool_length_puts_it(tmp_path, compensation, dept
     inside = np.hypot(X - 5, Y - 5) < 2.0 - 1e-6
     assert np.allclose(surf.z_mm[inside], -depth_mm, atol=F32_MM)
     assert np.all(surf.z_mm[np.hypot(X - 5, Y - 5) > 2.0 + 1e-6] == np.float32(-0.6))
+
+
+def test_a_tip_starting_inside_the_stock_is_said(tmp_path):
+    """The machine starts at its zero and T2 is 0.5 mm long, so its tip starts 0.5 mm into a stock whose
+    top is Z0 (work): building the workpiece says so; with the top at Z-0.6 it says nothing."""
+    config = dataclasses.replace(default_config(),
+                                 tools={2: Tool(shape="flat", diameter_mm=4.0, flutes=2, length_mm=0.5)})
+    path = tmp_path / "p.nc"
+    path.write_text("G21 G90 G94 T2 M6\nG43 H2\nG0 X5 Y5 Z1\nM2\n")
+    program = Controller(config).check(path)
+    inside, below = (build_workpiece(program, config, start_position(program), stock_text=s)[1]
+                     for s in ("0,0,-5,10,10,0", "0,0,-5,10,10,-0.6"))
+    assert "tip starts 0.500 mm below the stock's top, at X0.000 Y0.000 Z-0.500" in inside
+    assert "warning" not in below

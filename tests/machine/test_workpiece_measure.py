@@ -38,3 +38,12 @@ def test_the_pass_spacing_is_the_dominant_wavelength(samples_per_period):
     # the arch tops are cusps sampled within half a node of their peak
     h = classical_scallop_mm(3.0, pick)
     assert h - (pick / 2) / 3.0 * (pick / samples_per_period) / 2 - 1e-9 <= fig.facet_depth_um / 1e3 <= h + 1e-9
+
+
+def test_a_flat_floor_has_no_pass_spacing():
+    """Across a 4 mm slot 1 mm deep, over the middle 8 mm of a 10 mm stock at 80 um nodes (what
+    `vcnc surface-report` measures on a slot): the floor between the walls has no arches, so no pass
+    spacing (the walls' steps alone put a peak in the spectrum)."""
+    y = 1.04 + 0.08 * np.arange(100)
+    fig = profile_figures(y, np.where((y > 3.0) & (y < 7.0), -1.0, 0.0), form_removed=False, periodic=True)
+    assert fig.facet_spacing_mm is None and fig.facet_depth_um == 0.0
