@@ -11,7 +11,8 @@ always starts at an anchor) and the v^2 it must end with.
    samples where the path changes between straight and curved (straights shorter than
    `straight_min_mm` between curved pieces count as curved). Speeds at anchors: at most
    sqrt(x_acc), acceleration zero. x_acc is first held to what the curvature allows with no
-   path acceleration, |kv_i| v^2 <= A_i (the look-ahead may ride the curvature cap with some).
+   path acceleration, |kv_i| v^2 <= (1 - _CURVE_ROOM) A_i (the look-ahead may ride the
+   curvature cap with some).
 2. Path limits of each gap between anchors: A_i / |t_i| and J_i / |t_i|, straight or curved,
    each times its own scale that starts at 1 (step 4 lowers them: where the curvature's terms
    leave a curve less, the checks find it with the terms as they are).
@@ -48,6 +49,10 @@ _PEAK_GIVE = 0.02
 _SLACK = 1e-9
 _JOINT_MM = 1e-9  # samples closer than this are the two sides of one piece joint
 _STANDSTILL = 1e-9  # mm/s
+# share of an axis's acceleration x_acc leaves free where it rides that axis's curvature cap:
+# with none, a segment through such a sample may have no path acceleration there at all, and
+# its gap's scale fell by _SCALE_STEP for many rounds (down to the staircase) before it passed
+_CURVE_ROOM = 1e-3
 
 
 @njit(cache=True)
@@ -227,7 +232,7 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm, period_s):
     for k in range(n):  # the look-ahead may ride a curvature cap with the help of s'' != 0
         for i in range(3):
             if kv[k, i] != 0.0:
-                x[k] = min(x[k], (1.0 - 1e-6) * a_axis[i] / abs(kv[k, i]))
+                x[k] = min(x[k], (1.0 - _CURVE_ROOM) * a_axis[i] / abs(kv[k, i]))
     curved = _curved_intervals(s, t, kv, straight_min_mm)
     anchor = _anchors(s, x, curved)
     scale_a = np.ones(max(n - 1, 1))
