@@ -55,7 +55,10 @@ def _run(path: Path, config, cut: dict | None = None):
         from machine.controller import start_position
         from machine.workpiece.build import build_workpiece
 
-        workpiece, _ = build_workpiece(program, config, start_position(program), **cut)
+        workpiece, text = build_workpiece(program, config, start_position(program), **cut)
+        warning = text.partition("\n")[2]  # the tip starting inside the stock, as `vcnc run` says it
+        if warning:
+            click.echo(f"{path}: {warning}", err=True)
         ctl.sinks.append(workpiece)
         ctl.on_event = workpiece.event
     result = ctl.run(program)

@@ -345,3 +345,17 @@ def test_a_tip_starting_inside_the_stock_is_said(tmp_path):
                      for s in ("0,0,-5,10,10,0", "0,0,-5,10,10,-0.6"))
     assert "tip starts 0.500 mm below the stock's top, at X0.000 Y0.000 Z-0.500" in inside
     assert "warning" not in below
+
+
+def test_compare_says_when_a_tip_starts_inside_the_stock(tmp_path):
+    """The same start as above through `vcnc compare --stock`: each program's warning reaches the user."""
+    from click.testing import CliRunner
+
+    from machine.cli import main
+
+    a = tmp_path / "a.nc"
+    a.write_text("G21 G90 G94\nG0 X5 Y5 Z1\nG1 X6 F300\nM2\n")
+    res = CliRunner().invoke(main, ["compare", str(a), str(a), "--stock", "0,0,-5,10,10,0.5", "--grid-um", "200",
+                                    "--tool", "1"])
+    assert res.exit_code == 0, res.output
+    assert res.stderr.count("tip starts 0.500 mm below the stock's top, at X0.000 Y0.000 Z0.000") == 2
