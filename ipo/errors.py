@@ -29,9 +29,10 @@ IGES = "E-IPO-IGES"  # an IGES file the reader cannot take, or a surface the wri
 SURFACE_DATA = "E-IPO-SURFACE-DATA"  # a rational surface whose net, weights or knots are not a surface
 TOOLPATH_SETTINGS = "E-IPO-TOOLPATH-SETTINGS"  # a ball, pick feed, tolerance, feed or direction out of range
 TOOLPATH_SURFACE = "E-IPO-TOOLPATH-SURFACE"  # a surface the ball cannot finish (undercut, gouge, gap, crease)
+STUDY = "E-IPO-STUDY"  # a chord or pulse study (vcnc interp) with no motion, a bad step, or a curve past its grid
 CODES = (NURBS_PATH, NURBS_DATA, NURBS_CUT, ARC_RADIUS, NON_FINITE, START, ROUGHNESS_TARGET, SCURVE, TWIN_INPUT,
          FIT_SETTINGS, FIT_DATA, FIT_TOLERANCE, SKIN, SURFACE_POINTS, IGES, SURFACE_DATA, TOOLPATH_SETTINGS,
-         TOOLPATH_SURFACE)
+         TOOLPATH_SURFACE, STUDY)
 
 
 class IpoError(ValueError):

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipo.errors import STUDY, IpoError
 from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
 from ipo.interp.steppers import make_stepper
 from ipr.entities import MOTION_TYPES, Arc, Nurbs
@@ -76,10 +77,10 @@ def _step_entity(entity, step_mm: float, options: dict):
 def study(entities, step_mm: float, **options) -> ChordStudy:
     """Step every motion entity at chord step_mm; options go to make_stepper."""
     if not (np.isfinite(step_mm) and step_mm > 0):
-        raise ValueError(f"step must be > 0, got {step_mm}")
+        raise IpoError(STUDY, f"step must be > 0, got {step_mm}")
     motions = [e for e in entities if isinstance(e, MOTION_TYPES)]
     if not motions:
-        raise ValueError("no motion to interpolate")
+        raise IpoError(STUDY, "no motion to interpolate")
     for kind in {type(e) for e in motions}:  # load the compiled kernels outside the timed loop
         make_stepper(next(e for e in motions if type(e) is kind), **options).advance(np.full(2, step_mm))
     pos_parts = [np.asarray(motions[0].start, dtype=float)[None, :]]

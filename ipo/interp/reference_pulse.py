@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ipo.errors import STUDY, IpoError
 from ipo.interp.reference_word import checked_points
 
 
@@ -208,7 +209,7 @@ def pulse_deviation_blu(path_blu: np.ndarray, curve_points_mm: np.ndarray, blu_m
     lo = cells.min(axis=0)
     dims = cells.max(axis=0) - lo + 1
     if float(np.prod(dims.astype(np.float64))) >= 2.0**62:
-        raise ValueError("curve too large for the deviation grid; sample it in pieces")
+        raise IpoError(STUDY, "curve too large for the deviation grid; sample it in pieces")
     keys = cells[:, 0] - lo[0] + dims[0] * ((cells[:, 1] - lo[1]) + dims[1] * (cells[:, 2] - lo[2]))
     order = np.argsort(keys, kind="stable")
     return float(_path_deviation(path.astype(np.float64), curve, keys[order], order, lo, dims,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from machine.commands import INPUT_FILE, OutputPath
+from machine.commands import INPUT_FILE, OutputPath, refusal
 
 
 MAX_STEPS = 20_000_000  # steps (or pulses) of one study: its arrays stay within about a gigabyte
@@ -51,6 +51,7 @@ def _check_steps(program, step_um: float, option: str) -> None:
 def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_evals, du, pulse, blu_um, out,
             as_json):
     """Interpolate every motion entity of FILE at a constant chord D (no feed planning)."""
+    from ipo.errors import IpoError
     from ipo.interp.chord_study import pulse_study, study
     from ipr import parse_file
     from ipr.entities import GCodeError
@@ -71,8 +72,8 @@ def command(file, step_um, method, n1, m1, start_tol_pct, chord_tol_pct, max_eva
     try:
         result = study(program.entities, step_um / 1000.0, **options)
         pulse_dev = pulse_study(program.entities, blu_um / 1000.0, result.pos_mm) if pulse else None
-    except (ValueError, TypeError) as exc:
-        raise click.ClickException(str(exc)) from exc
+    except IpoError as err:
+        raise refusal(err, file) from None
     summary = result.summary()
     if pulse_dev is not None:
         summary["pulse_dev_blu"] = pulse_dev

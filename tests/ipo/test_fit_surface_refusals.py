@@ -1,5 +1,5 @@
 """The fitting and surface chain refuses bad input with ipo's typed errors: each code of
-ipo.errors that `vcnc fit`, `vcnc surface` and `vcnc toolpath` report, met through the CLI
+ipo.errors that `vcnc fit`, `vcnc surface`, `vcnc toolpath` and `vcnc interp` report, met through the CLI
 (exit 1, `WHERE: error[CODE]: message`), and every ipo code documented in docs/gcode-errors.md."""
 from __future__ import annotations
 
@@ -101,6 +101,12 @@ def test_toolpath_surface_gouge(tmp_path):
     out = refused(errors.TOOLPATH_SURFACE, "toolpath", igs, "--ball-mm", "3", "--pick-mm", "1",
                   "-o", tmp_path / "f.nc")
     assert "folds back (gouge)" in out
+
+
+def test_interp_study_without_motion(tmp_path):
+    prog = tmp_path / "dwell.nc"
+    prog.write_text("G21 G90\nG4 P0.5\nM2\n")
+    assert f"{prog}: error[{errors.STUDY}]: no motion to interpolate" in refused(errors.STUDY, "interp", prog)
 
 
 @pytest.mark.parametrize("code", errors.CODES)
