@@ -7,9 +7,7 @@ least that of a dilated tool on the line: a ball of radius r + e3, e3 lower (e3 
 dilation of a ball by a ball); a flat or bull with its core wider by the horizontal deviation, lowered
 by the vertical one (exactly 0 on a level cut, so that level passes tie exactly). Along the line the
 bound G(s) = z(s) - drop + h(|q - xy(s)|) is convex in the line's parameter s, and its minimum G* over
-the line bounds every segment of the run. Over a square of nodes within e of its centre, the same tool
-with its core wider by e more, at the centre, bounds every node's G* (a bull: its envelope from a few
-bisections and the tangents at the bracket's ends, see envelope.bull_lower).
+the line bounds every segment of the run.
 """
 from __future__ import annotations
 
@@ -19,9 +17,8 @@ import numpy as np
 from numba import njit
 
 from machine.workpiece.chains import deviation
-from machine.workpiece.envelope import bull_lower, envelope, profile_mm, profile_slope
+from machine.workpiece.envelope import envelope, profile_mm, profile_slope
 
-HALVINGS = 10  # bisections of a square's bull bound (the tangents then bound it within about 1 um)
 # columns of the run table
 AX, AY, AZ, BX, BY, BZ, INV_LL, CORE, CORNER, DROP = range(10)
 COLUMNS = 10
@@ -85,17 +82,6 @@ def bound_plane(qx, qy, run):
     if rho <= core or rho == 0.0:
         return g - run[DROP], 0.0, 0.0, True
     return g - run[DROP], slope * px / rho, slope * py / rho, True
-
-
-@njit(cache=True)
-def bound_square(qx, qy, run, e, floor_mm):
-    """A lower bound of G* over the nodes within e of q."""
-    core, corner = run[CORE] + e, run[CORNER]
-    if corner == 0.0:
-        g = envelope(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, 0.0)[0]
-    else:
-        g = bull_lower(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, corner, HALVINGS)
-    return max(g - run[DROP], floor_mm)
 
 
 @njit(cache=True)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 CHAIN_TOL_MM = 0.001  # sleeve radius: the BLU rounding's reach at 1 um (0.87 um in 3D) and a little more
@@ -94,10 +93,3 @@ def deviation(pos, a, b):
         exy = max(exy, math.hypot(ex, ey))
         ez = max(ez, abs(ez_k))
     return e3, exy, ez
-
-
-def chain_starts(pos: np.ndarray) -> np.ndarray:
-    """The runs of `pos` as start indices (the last entry is the last point)."""
-    starts = np.empty(len(pos), np.int64)
-    count = build_chains(pos, CHAIN_TOL_MM, MAX_SEGMENTS, starts)
-    return starts[:count + 1]

@@ -155,37 +155,6 @@ def env_bull(qx, qy, x0, y0, z0, x1, y1, z1, core, corner):
 
 
 @njit(cache=True)
-def bull_lower(qx, qy, x0, y0, z0, x1, y1, z1, core, corner, halvings):
-    """A lower bound of the bull's env(q) after `halvings` bisections: g is convex, so it lies above its
-    tangents at the bracket's ends, and their crossing is below its minimum."""
-    bx, by, dz = x1 - x0, y1 - y0, z1 - z0
-    lo, hi = cover_interval(qx, qy, x0, y0, bx, by, core + corner)
-    if lo > hi:
-        return np.inf
-    d_lo = _dg(lo, qx, qy, x0, y0, bx, by, dz, core, corner)
-    if d_lo >= 0.0:
-        return _g(lo, qx, qy, x0, y0, z0, bx, by, dz, core, corner)
-    d_hi = _dg(hi, qx, qy, x0, y0, bx, by, dz, core, corner)
-    if d_hi <= 0.0:
-        return _g(hi, qx, qy, x0, y0, z0, bx, by, dz, core, corner)
-    for _ in range(halvings):
-        mid = 0.5 * (lo + hi)
-        d_mid = _dg(mid, qx, qy, x0, y0, bx, by, dz, core, corner)
-        if d_mid < 0.0:
-            lo, d_lo = mid, d_mid
-        else:
-            hi, d_hi = mid, d_mid
-    g_lo = _g(lo, qx, qy, x0, y0, z0, bx, by, dz, core, corner)
-    g_hi = _g(hi, qx, qy, x0, y0, z0, bx, by, dz, core, corner)
-    if d_hi == np.inf:  # a tangent at the rim is vertical: the other one alone bounds g
-        return g_lo + d_lo * (hi - lo) if d_lo > -np.inf else -np.inf
-    if d_lo == -np.inf:
-        return g_hi - d_hi * (hi - lo)
-    t = (g_hi - g_lo + d_lo * lo - d_hi * hi) / (d_lo - d_hi)
-    return g_lo + d_lo * (min(max(t, lo), hi) - lo)
-
-
-@njit(cache=True)
 def envelope(qx, qy, x0, y0, z0, x1, y1, z1, core, corner):
     """(env(q), t) of the tool (core, corner) swept from (x0, y0, z0) to (x1, y1, z1); inf off its path."""
     if corner == 0.0:

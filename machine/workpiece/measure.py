@@ -36,9 +36,6 @@ class ProfileFigures:
     facet_spacing_mm: float | None
     facet_depth_um: float | None
 
-    def as_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__slots__}
-
 
 def profile(surface: Surface, along: str, at_mm: float, lo_mm: float = -math.inf, hi_mm: float = math.inf,
             reference: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -166,12 +163,6 @@ def gouge_report(gouge_line: np.ndarray, surface: Surface, reference: np.ndarray
         out.append({"line": int(ln), "nodes": int(mask.sum()), "depth_um": float(depth[j, i] * 1e3),
                     "x_mm": float(surface.x_mm[i]), "y_mm": float(surface.y_mm[j])})
     return sorted(out, key=lambda g: -g["depth_um"])
-
-
-def analytic_reference(surface: Surface, z_of_xy) -> np.ndarray:
-    """A reference surface given as z = f(x, y) on the grid."""
-    X, Y = np.meshgrid(surface.x_mm, surface.y_mm)
-    return np.asarray(z_of_xy(X, Y), dtype=float)
 
 
 def iges_reference(surface: Surface, path, chunk: int = 200_000) -> np.ndarray:
