@@ -10,6 +10,7 @@ same to the bit as the array forms they replace.
 from __future__ import annotations
 
 from math import inf, isfinite, isnan, sqrt
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -20,6 +21,27 @@ TINY = 1e-12
 CORNER_SHARE = 0.5
 # A tangent step below this share of an axis's per-period velocity change is no corner.
 NEGLIGIBLE_STEP = 0.005
+
+
+class SampleGeometry(NamedTuple):
+    """The samples as the cap kernels read them."""
+
+    s: np.ndarray  # arc length, mm
+    t: np.ndarray  # unit tangent, (n, 3)
+    kv: np.ndarray  # curvature vector, (n, 3), 1/mm
+    piece: np.ndarray  # the piece each sample lies on
+
+
+class CapRule(NamedTuple):
+    """The machine's limits and the period's figures the caps are computed from."""
+
+    v_max: np.ndarray  # per axis, mm/s
+    a_max: np.ndarray  # per axis, mm/s^2
+    corner_acc_t: np.ndarray  # (1 - CORNER_SHARE) A T per axis, mm/s
+    step_room: np.ndarray  # NEGLIGIBLE_STEP times an axis's per-period velocity change, mm/s
+    period_s: float
+    delta_mm: float  # chord tolerance
+    delta2_mm2: float  # delta_mm**2 as Python computes it
 
 
 @njit(cache=True, error_model="numpy")
@@ -55,13 +77,15 @@ def curvature_cap_at(t, kv, k, a_max):
 
 
 @njit(cache=True, error_model="numpy")
-def geometric_caps(t, kv, piece, corner_tol, v_max, a_max, corner_acc_t, step_room, period_s, delta_mm):
-    """Axis-velocity and curvature caps at every sample, and the corner caps where pieces meet
-    at a sharp (unblended) corner, as limits.sample_caps defines them.
+def geometric_caps(geo, corner_tol, rule):
+    """Axis-velocity and curvature caps at every sample of geo (SampleGeometry) under rule
+    (CapRule), and the corner caps where pieces meet at a sharp (unblended) corner, as
+    limits.sample_caps defines them; corner_tol per piece.
 
-    corner_acc_t = (1 - CORNER_SHARE) A T per axis; step_room = NEGLIGIBLE_STEP times an axis's
-    per-period velocity change. Returns (x_axis, x_curv, x_corner, corner, edge, sharp): edge
-    holds the samples where a piece ends, sharp which of those corners are sharp."""
+    Returns (x_axis, x_curv, x_corner, corner, edge, sharp): edge holds the samples where a
+    piece ends, sharp which of those corners are sharp."""
+    t, kv, piece = geo.t, geo.kv, geo.piece
+    v_max, a_max, corner_acc_t, step_room = rule.v_max, rule.a_max, rule.corner_acc_t, rule.step_room
     n = t.shape[0]
     x_axis = np.empty(n)
     x_curv = np.empty(n)
@@ -93,8 +117,8 @@ def geometric_caps(t, kv, piece, corner_tol, v_max, a_max, corner_acc_t, step_ro
         if sharp[e]:
             # crossed within one period: half of each axis limit, and the period's chord
             # cuts the corner by (v T / 2) sin(theta / 2) <= tol
-            tol = max(delta_mm, corner_tol[piece[k]])
-            v = min(v_acc, 4 * tol / (period_s * sqrt(d2)))
+            tol = max(rule.delta_mm, corner_tol[piece[k]])
+            v = min(v_acc, 4 * tol / (rule.period_s * sqrt(d2)))
             cap[e] = v * v
         e += 1
     for e in range(n_edge):  # both sides of a corner; the later side wins, as numpy assigns
@@ -183,11 +207,13 @@ def binding(caps, m):
 
 
 @njit(cache=True, error_model="numpy")
-def combined_caps(s, kv, piece, stop_after, edge, caps, codes, delta_mm, delta2_mm2, period_s, dwell_code):
-    """The chord cap over what the caps in rows 0-2 of caps (C, K) allow, into row 3, then
-    the binding cap of all C rows and its reason (codes[row]); zero with dwell_code at the
-    samples where a piece that stops ends and at the sample after."""
-    caps[3] = chord_cap(s, kv, delta_mm, delta2_mm2, period_s, binding(caps, 3)[0])
+def combined_caps(geo, stop_after, edge, caps, codes, rule, dwell_code):
+    """The chord cap (rule: CapRule) over what the caps in rows 0-2 of caps (C, K) allow at the
+    samples geo (SampleGeometry), into row 3, then the binding cap of all C rows and its reason
+    (codes[row]); zero with dwell_code at the samples where a piece that stops ends and at the
+    sample after."""
+    piece = geo.piece
+    caps[3] = chord_cap(geo.s, geo.kv, rule.delta_mm, rule.delta2_mm2, rule.period_s, binding(caps, 3)[0])
     x, arg = binding(caps, caps.shape[0])
     reason = np.empty(x.shape[0], np.int8)
     for k in range(x.shape[0]):

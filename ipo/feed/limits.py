@@ -10,8 +10,8 @@ import numpy as np
 from numba import njit
 
 from ipo.contracts import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_ROUGHNESS
-from ipo.feed.cap_kernels import (CORNER_SHARE, NEGLIGIBLE_STEP, axis_cap_at, combined_caps, curvature_cap_at,
-                                  geometric_caps)
+from ipo.feed.cap_kernels import (CORNER_SHARE, NEGLIGIBLE_STEP, CapRule, SampleGeometry, axis_cap_at,
+                                  combined_caps, curvature_cap_at, geometric_caps)
 from ipo.roughness import inclination_rad, roughness_feed_mm_s
 
 # The roughness cap is planned a hair below its value: the profile meets it at samples and
@@ -161,9 +161,10 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
     step the velocity itself).
     """
     room = a_max * period_s if j_max is None else np.minimum(a_max * period_s, j_max * period_s**2)
-    x_axis, x_curv, x_corner, corner, edge, sharp = geometric_caps(
-        smp.t, smp.kv, smp.piece, pc.corner_tol_mm, v_max, a_max, (1.0 - CORNER_SHARE) * a_max * period_s,
-        NEGLIGIBLE_STEP * room, period_s, delta_mm)
+    geo = SampleGeometry(smp.s, smp.t, smp.kv, smp.piece)
+    rule = CapRule(v_max, a_max, (1.0 - CORNER_SHARE) * a_max * period_s, NEGLIGIBLE_STEP * room, period_s, delta_mm,
+                   delta_mm**2)
+    x_axis, x_curv, x_corner, corner, edge, sharp = geometric_caps(geo, pc.corner_tol_mm, rule)
     if j_max is not None:
         x_jerk = np.where(sharp, 0.0, step_caps(smp.s, smp.kv, edge, j_max, period_s))
         x_corner[edge] = np.minimum(x_corner[edge], x_jerk)
@@ -183,6 +184,5 @@ def sample_caps(smp, pc, v_max: np.ndarray, a_max: np.ndarray, period_s: float, 
         f = roughness_feed_mm_s(r, pick, target, flutes, rpm, _least_inclination(smp.t)) * ROUGHNESS_USE
         rows.append(np.where(active, f**2, np.inf))
         codes.append(LIMIT_ROUGHNESS)
-    cap, reason = combined_caps(smp.s, smp.kv, smp.piece, pc.stop_after, edge, np.vstack(rows),
-                                np.array(codes, np.int8), delta_mm, delta_mm**2, period_s, LIMIT_DWELL)
+    cap, reason = combined_caps(geo, pc.stop_after, edge, np.vstack(rows), np.array(codes, np.int8), rule, LIMIT_DWELL)
     return cap, reason, corner
