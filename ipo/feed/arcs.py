@@ -11,6 +11,7 @@ so the pieces are the same to the bit.
 from __future__ import annotations
 
 from math import cos, hypot, sin
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -27,12 +28,23 @@ def _sign(x):
     return x  # a signed zero or nan, as np.sign gives
 
 
+class ArcSpecs(NamedTuple):
+    """A arcs as programmed, one row each."""
+
+    start: np.ndarray  # (A, 3), mm
+    end: np.ndarray  # (A, 3), mm
+    centre: np.ndarray  # (A, 3), mm
+    r0: np.ndarray  # (A,) radius at the start, mm
+    sweep: np.ndarray  # (A,) signed sweep, rad
+    axes: np.ndarray  # (A, 3) the plane's axes a, b and its normal n
+
+
 @njit(cache=True)
-def arc_pieces(g, length, t_in, t_out, rows, start, end, centre, r0, sweep, axes):
+def arc_pieces(g, length, t_in, t_out, rows, arcs):
     """Rows `rows` of the geometry g (ipo.feed.analytic.Geometry), of length and of the
-    tangents at both ends t_in, t_out, from the arcs start, end, centre (A, 3), r0, sweep
-    (A,) in the planes of axes (A, 3: a, b, n). Returns the first arc whose start lies on
-    its centre (r0 = 0, not laid out), or -1."""
+    tangents at both ends t_in, t_out, from the arcs (ArcSpecs). Returns the first arc whose
+    start lies on its centre (r0 = 0, not laid out), or -1."""
+    start, end, centre, r0, sweep, axes = arcs
     eye = np.eye(3)
     tt, kk = np.empty((2, 3)), np.empty((2, 3))
     for k in range(rows.shape[0]):

@@ -34,7 +34,7 @@ from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
 from ipo.feed.analytic import Geometry, evaluate, frame
-from ipo.feed.arcs import arc_pieces, move_points, trimmed_arcs
+from ipo.feed.arcs import ArcSpecs, arc_pieces, move_points, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
@@ -113,10 +113,10 @@ def motion_length(m: Motion, nurbs) -> float:
 
 def _lay_out_arcs(arcs: Pieces, t_in: np.ndarray, t_out: np.ndarray, rows: np.ndarray, ents: list[Arc]) -> None:
     """The arcs ents as rows `rows` of arcs (untrimmed), with their end tangents."""
-    bad = arc_pieces(arcs.geometry, arcs.length, t_in, t_out, rows, np.array([e.start for e in ents], dtype=float),
-                     np.array([e.end for e in ents], dtype=float), np.array([e.center for e in ents], dtype=float),
-                     np.array([e.radius_mm for e in ents]), np.array([e.sweep_rad for e in ents]),
-                     np.array([PLANE_AXES[e.plane] for e in ents], dtype=np.int64))
+    specs = ArcSpecs(np.array([e.start for e in ents], dtype=float), np.array([e.end for e in ents], dtype=float),
+                     np.array([e.center for e in ents], dtype=float), np.array([e.radius_mm for e in ents]),
+                     np.array([e.sweep_rad for e in ents]), np.array([PLANE_AXES[e.plane] for e in ents], dtype=np.int64))
+    bad = arc_pieces(arcs.geometry, arcs.length, t_in, t_out, rows, specs)
     if bad >= 0:
         raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", ents[bad].line)
 
