@@ -13,6 +13,7 @@ tp->currentPos is.
 from __future__ import annotations
 
 from math import acos, cos, sin, sqrt
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -283,10 +284,20 @@ def _reason(F, I, k, acc, p):
     return LIMIT_CURVATURE if r == VMAX_CURVATURE else (LIMIT_SEGMENT if r == VMAX_SAMPLE else LIMIT_AXIS)
 
 
+class Periods(NamedTuple):
+    """The arrays run_cycles writes, one row per period."""
+
+    pos: np.ndarray  # (N, 3) commanded position, mm
+    vel: np.ndarray  # path speed, mm/s
+    line: np.ndarray  # int32 source line
+    reason: np.ndarray  # int8 LIMIT_* code
+
+
 @njit(cache=True, error_model="numpy")
-def run_cycles(F, I, head, stop, final, p, pos, out_pos, out_vel, out_line, out_reason):
-    """Periods until the output is full, segment `stop` is reached, or (not final) fewer than
-    three segments are left to look at; returns (periods written, new head)."""
+def run_cycles(F, I, head, stop, final, p, pos, out):
+    """Periods into out (Periods) until it is full, segment `stop` is reached, or (not final)
+    fewer than three segments are left to look at; returns (periods written, new head)."""
+    out_pos, out_vel, out_line, out_reason = out
     n = 0
     tmp = np.empty(3)
     before = np.empty(3)

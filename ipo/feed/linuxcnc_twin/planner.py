@@ -27,7 +27,7 @@ from ipo.contracts import LIMIT_DWELL, PeriodBatch
 from ipo.errors import START, IpoError
 from ipo.feed.linuxcnc_twin.canon import Canon
 from ipo.feed.linuxcnc_twin.columns import NF, NI, pack
-from ipo.feed.linuxcnc_twin.cycle import run_cycles
+from ipo.feed.linuxcnc_twin.cycle import Periods, run_cycles
 from ipo.feed.linuxcnc_twin.settings import settings_of
 from ipo.feed.linuxcnc_twin.tp import TrajectoryPlanner
 from ipo.feed.linuxcnc_twin.waits import TaskWaits, stops_motion
@@ -107,14 +107,11 @@ class LinuxcncTwin:
             upto = len(self.F)
             if self.inline:
                 upto = min(upto, self.inline[0][0] - base)
-            out_pos = np.empty((self.batch, 3))
-            out_vel = np.empty(self.batch)
-            out_line = np.empty(self.batch, np.int32)
-            out_reason = np.empty(self.batch, np.int8)
-            k, self.head = run_cycles(self.F, self.I, self.head, upto, final, self.params, self.pos, out_pos,
-                                      out_vel, out_line, out_reason)
+            out = Periods(np.empty((self.batch, 3)), np.empty(self.batch), np.empty(self.batch, np.int32),
+                          np.empty(self.batch, np.int8))
+            k, self.head = run_cycles(self.F, self.I, self.head, upto, final, self.params, self.pos, out)
             if k:
-                yield self._batch(out_pos[:k], out_vel[:k], out_reason[:k], out_line[:k])
+                yield self._batch(out.pos[:k], out.vel[:k], out.reason[:k], out.line[:k])
             while self.inline and self.inline[0][0] - base <= self.head:
                 yield self.inline.pop(0)[1]
             if k < self.batch:
