@@ -205,14 +205,15 @@ def _relax_at(g, z, group, q, nodes, found):
 
 
 @njit(cache=True)
-def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, restore_cost):
-    """The shortest path of the module doc. Returns (out, out_from, ins, ins_from, ctrl, rho, double,
+def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost):
+    """The shortest path of the module doc over the junctions and span rule nodes (Nodes). Returns (out, out_from, ins, ins_from, ctrl, rho, double,
     state): out[v] the fewest blocks up to move end v with no group open, out_from[v] >= 0 the
     junction whose group closed there, -1 - e: a move kept from move end e; ins[k] with a group
     open at junction k, ins_from[k] >= 0 the junction its span came from, -1: opened there,
     -2 - z: a corner from junction z; ctrl, rho: the control point and weight of that span;
     double: the span starts with a knot of multiplicity 2 (ipo.fit.weights), one block more;
     state: the weights' state there (ipo.fit.weights)."""
+    pos, role = nodes.pos, nodes.role
     n_nodes = pos.shape[0]
     n_pts = q.shape[0]
     out = np.full(n_pts, INF, dtype=np.int64)
@@ -227,7 +228,6 @@ def plan_kernel(q, pos, pt, tan, vert, role, is_end, sharp, tol_mm, gap_mm, rest
     path = np.empty((MAX_SPAN_POINTS + 2, 3))
     c = np.empty(3)
     new = np.empty(STATE)
-    nodes = Nodes(pos, pt, tan, role, tol_mm, gap_mm)
     found = Found(ins, ins_from, ctrl, rho, state, double, curve, path, c, new)
     out[0] = 0
     group = np.empty(n_nodes + 1, dtype=np.int64)  # first junction of each position

@@ -8,7 +8,7 @@ import numpy as np
 
 from ipo.fit.chains import Chain, sharp_vertices
 from ipo.fit.compiled import foot_params
-from ipo.fit.conic_plan import DEGREE, junctions, plan_kernel
+from ipo.fit.conic_plan import DEGREE, Nodes, junctions, plan_kernel
 from ipo.fit.groups import Span
 from ipo.fit.rational import RationalFit, SpanPolynomials
 from ipo.fit.weights import X, spline
@@ -59,8 +59,8 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     is_end[0] = True
     is_end[chain.ends] = True
     tol = opt.tol_mm * (1.0 - TEST_MARGIN) - chain.sag_mm
-    result = plan_kernel(chain.points, cand.pos, cand.point, cand.tangent, cand.vertex, cand.role, is_end, sharp,
-                         tol, GAP_FRACTION * opt.tol_mm, opt.restore_blocks)
+    nodes = Nodes(cand.pos, cand.point, cand.tangent, cand.role, tol, GAP_FRACTION * opt.tol_mm)
+    result = plan_kernel(chain.points, nodes, cand.vertex, is_end, sharp, opt.restore_blocks)
     back = result + (cand.pos, cand.point, cand.vertex)
     out, out_from = result[0], result[1]
     move_at = {int(e): i + 1 for i, e in enumerate(chain.ends)}
