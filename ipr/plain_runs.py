@@ -153,12 +153,16 @@ ALL_MOVED, ALL_G1, ALL_G0 = 1, 2, 4   # what execute says of the lines it ran
 
 
 @nb.njit(cache=True)
-def execute(plain, motion, words, values, ends, feeds, motions, moved, i0, absolute, unit, o0, o1, o2,
-            p0, p1, p2, m, f):
-    """Run the plain lines from i0 on, from the position (p0, p1, p2), modal motion m (-1: none)
-    and feed f; stop at the first line that is not plain or that ipr.plain's step would refuse.
-    Writes each line's end, feed, motion and whether it made an entity at its index; returns
-    the lines done and ALL_* flags."""
+def execute(read, made, i0, start):
+    """Run the plain lines from i0 on; stop at the first line that is not plain or that
+    ipr.plain's step would refuse. read: what `scan` read (plain, motion, words, values); start:
+    the modal state, (absolute, unit, offset (3,), position (3,), motion (-1: none), feed).
+    Writes each line's end, feed, motion and whether it made an entity at its index into made
+    (ends, feeds, motions, moved); returns the lines done and ALL_* flags. The records are
+    plain tuples: numba types a NamedTuple argument in Python on every call."""
+    plain, motion, words, values = read
+    ends, feeds, motions, moved = made
+    absolute, unit, (o0, o1, o2), (p0, p1, p2), m, f = start
     flags = ALL_MOVED | ALL_G1 | ALL_G0
     i = i0
     while i < len(plain) and plain[i]:
@@ -225,10 +229,10 @@ def run(scanned: Scanned, i: int, line: int, state, out: list) -> int:
     ipr.modal.ModalState without a NURBS group or detour), appending their entities to `out`;
     returns how many lines it executed (0: line i is for the Python path)."""
     s = scanned
-    (o0, o1, o2), pos = state.offset, state.pos
-    done, flags = execute(s.plain, s.motion, s.words, s.values, s.ends, s.feeds, s.motions, s.moved, i,
-                          state.absolute, state.unit, o0, o1, o2, pos[0], pos[1], pos[2],
-                          -1 if state.motion is None else state.motion, state.feed_mm_s)
+    pos = state.pos
+    done, flags = execute((s.plain, s.motion, s.words, s.values), (s.ends, s.feeds, s.motions, s.moved), i,
+                          (state.absolute, state.unit, state.offset, pos, -1 if state.motion is None else state.motion,
+                           state.feed_mm_s))
     if done == 0:
         return 0
     j, path = i + done, state.path
