@@ -160,6 +160,27 @@ def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
 
 
 @njit(cache=True)
+def _x_ratio(v, xk):
+    """v^2 / x_acc where the speed passes above x_acc at a sample (beyond rounding), else 1."""
+    if v * v > xk * (1.0 + 1e-6) + 1e-9:
+        return v * v / max(xk, 1e-300)
+    return 1.0
+
+
+@njit(cache=True)
+def _above_x(s, x, lo, hi, va, vp, vb, a, j):
+    """Whether the segment passes above x_acc at some sample of its gap: the speeds alone, for
+    the peak's bisection in step 4 (the axes are checked once, at the peak it settles on)."""
+    length = s[hi] - s[lo]
+    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    for k in range(lo, hi + 1):
+        v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+        if _x_ratio(v, x[k]) > 1.0:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period_s):
     """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
     axes are checked at every sample and, with the geometry of the samples either side, where
@@ -175,10 +196,9 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period
         _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
         if k == hi:
             jk = jj[6]  # the end of the last ramp
-        if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
-            r = v * v / max(x[k], 1e-300)
-            if r > worst_ratio:
-                worst, worst_ratio = k, r
+        r = _x_ratio(v, x[k])
+        if r > worst_ratio:
+            worst, worst_ratio = k, r
         other = -1  # the sample across a piece joint at a gap's end
         if k == lo and k > 0 and s[k] - s[k - 1] <= _JOINT_MM:
             other = k - 1
@@ -194,9 +214,9 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period
             continue
         while k + 1 < hi and s[k + 1] - s[lo] < d:
             k += 1
-        for jq in (jj[q - 1], jj[q]):
-            axis_over |= _axes_over(s, t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
-            axis_over |= _axes_over(s, t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+        jq = max(abs(jj[q - 1]), abs(jj[q]))  # the axes see |jerk|: the larger one either side covers both
+        axis_over |= _axes_over(s, t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+        axis_over |= _axes_over(s, t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
     return worst, axis_over
 
 
@@ -212,8 +232,7 @@ def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
         r = 1.0
         if k <= hi:
             v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
-            if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
-                r = v * v / max(x[k], 1e-300)
+            r = _x_ratio(v, x[k])
         if r > best_r:
             best, best_r = k, r
         elif r <= 1.0 and best >= 0:
@@ -298,8 +317,7 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm, period_s):
                 low, high = base, p
                 for _b in range(24):
                     mid = 0.5 * (low + high)
-                    if _check(s, t, kv, x, lo, hi, w[g], mid, w[g + 1], ag[g], jg[g], a_axis, j_axis,
-                              cv[g], period_s)[0] < 0:
+                    if not _above_x(s, x, lo, hi, w[g], mid, w[g + 1], ag[g], jg[g]):
                         low = mid
                     else:
                         high = mid

@@ -65,11 +65,30 @@ def _boundary(v, d, a, j, ok, bad):
 @njit(cache=True)
 def reach(v, d, a, j):
     """The largest w >= v with transition_distance(v, w) <= d (the same as the largest speed
-    from which v is reached within d: the distance is symmetric in its speeds)."""
-    hi = v + max(1.0, v)
-    while transition_distance(v, hi, a, j) <= d:
-        hi = v + 2.0 * (hi - v)
-    return _boundary(v, d, a, j, v, hi)
+    from which v is reached within d: the distance is symmetric in its speeds). Closed form:
+    the look-ahead's passes call this once per anchor and round, so it is most of the plan.
+    With dv = w - v, d = (v + dv / 2) T(dv): a quadratic in dv where the change reaches a
+    (dv >= a^2 / j), else with u = sqrt(dv) the cubic u^3 + 2 v u = d sqrt(j), one real root."""
+    if d <= 0.0:
+        return v
+    dv_a = a * a / j
+    if d >= (v + 0.5 * dv_a) * 2.0 * a / j:
+        # dv^2 / (2a) + (v / a + a / (2j)) dv + (v a / j - d) = 0, the positive root without cancellation
+        b = v / a + 0.5 * a / j
+        c = d - v * a / j
+        dv = 2.0 * c / (b + np.sqrt(b * b + 2.0 * c / a))
+    else:
+        p, q = 2.0 * v, d * np.sqrt(j)
+        r = np.sqrt(0.25 * q * q + p**3 / 27.0)
+        m = np.cbrt(0.5 * q + r)
+        u = m - p / (3.0 * m) if m > 0.0 else 0.0
+        for _ in range(3):  # Newton polishes Cardano's root where p dominates and it cancels
+            u = max(u - (u**3 + p * u - q) / (3.0 * u * u + p), 0.0)
+        dv = u * u
+    w = v + dv
+    while w > v and transition_distance(v, w, a, j) > d:  # rounding: the speed must still fit
+        w = max(np.nextafter(w, 0.0), v)
+    return w
 
 
 @njit(cache=True)
