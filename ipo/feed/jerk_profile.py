@@ -199,3 +199,44 @@ def time_at(tt, ss, vv, aa, jj, dist):
         if hi - lo <= 1e-15:
             break
     return u
+
+
+@njit(cache=True)
+def durations(s, idx, w, vp, ag, jg):
+    """Duration of each gap's segment: anchors at samples idx of arc lengths s, their speeds
+    w, and per gap the peak speed vp and the path limits ag, jg (ipo.feed.jerk_plan.plan)."""
+    m = idx.shape[0]
+    out = np.zeros(m - 1)
+    for g in range(m - 1):
+        length = s[idx[g + 1]] - s[idx[g]]
+        if length > 0.0:
+            out[g] = phases(w[g], vp[g], w[g + 1], length, ag[g], jg[g])[0][7]
+    return out
+
+
+@njit(cache=True)
+def arc_lengths_at(times, s, idx, w, vp, ag, jg, t_start):
+    """Arc length at each time (from the first anchor; times ascending within the gaps'
+    total) and the gap each falls in; t_start[g] is when gap g begins."""
+    out = np.empty(times.shape[0])
+    gap = np.empty(times.shape[0], np.int64)
+    m = idx.shape[0]
+    g = 0
+    while g + 1 < m - 1 and t_start[g + 1] <= times[0]:
+        g += 1
+    length = s[idx[g + 1]] - s[idx[g]]
+    tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+    for q in range(times.shape[0]):
+        tq = times[q]
+        if g + 1 < m - 1 and t_start[g + 1] <= tq:
+            while g + 1 < m - 1 and t_start[g + 1] <= tq:
+                g += 1
+            length = s[idx[g + 1]] - s[idx[g]]
+            tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+        if length <= 0.0:
+            out[q] = s[idx[g + 1]]
+        else:
+            d = state(tt, ss, vv, aa, jj, tq - t_start[g])[0]
+            out[q] = s[idx[g]] + min(max(d, 0.0), length)
+        gap[q] = g
+    return out, gap
