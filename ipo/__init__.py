@@ -18,5 +18,10 @@ Public entry points: `ipo.feed.planner.plan_periods` (entities -> PeriodBatch st
 events; `ipo.feed.profiles.plan_function` gives a planner profile's, e.g. the grbl twin's), `ipo.interp.steppers.make_stepper`, `ipo.interp.chord_study.study`,
 `ipo.fit.convert.convert_text`, `ipo.surface.section_fit.fit_sections`,
 `ipo.surface.skinning.skin_patches`, `ipo.surface.iges`, `ipo.surface.toolpath.plan_passes`,
-`ipo.config.load_config`. Nothing is imported here, so that `import ipo.config` stays cheap.
+`ipo.config.load_config`. Nothing else is imported here, so that `import ipo.config` stays
+cheap; `ipo.kernel_cache` first points numba's cache at a directory keyed by the kernels' source
+(machine/ imports ipo before any kernel of its own).
 """
+from ipo.kernel_cache import use_source_keyed_cache
+
+use_source_keyed_cache()

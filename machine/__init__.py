@@ -13,3 +13,4 @@
 
 May import: ipo, ipr. Nothing imports machine.
 """
+import ipo  # noqa: F401  (first: numba's cache directory, keyed by the kernels' source; ipo/kernel_cache.py)

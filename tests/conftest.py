@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
+import ipo  # noqa: F401  (before any kernel, ipr's too: numba's source-keyed cache, ipo/kernel_cache.py)
+
 # CI must not fail by the luck of the draw: there the property tests replay a fixed sequence of
 # examples (developers' runs stay random and keep finding new cases).
 settings.register_profile("ci", derandomize=True)

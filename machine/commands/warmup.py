@@ -1,9 +1,10 @@
 """`vcnc warmup`: compile the numba kernels of a run once, right after an install.
 
 Why an explicit step: numba compiles a kernel on its first call and caches the machine code
-next to the sources (`cache=True`), keyed on the source file's time stamp, the numba version
-and the CPU. The cache is therefore made on the machine that runs vcnc, once per install (and
-again after a kernel changes); it cannot ship in the repository. Compiling the kernels a run
+(`cache=True`) in a directory keyed by the kernels' source (ipo/kernel_cache.py), the numba
+version and the CPU. The cache is therefore made on the machine that runs vcnc, once per install
+(and again after a kernel changes); it cannot ship in the repository. The warm-up also deletes
+the caches of other source versions unused for a week (an upgrade leaves the old one behind). Compiling the kernels a run
 uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the look-ahead's `backward` and the
 steppers' `_walk`, which inline their callees). Done by `vcnc warmup` in the install command,
 a user's first `vcnc run` loads cached kernels instead of compiling them (measured figures in
@@ -17,13 +18,17 @@ then it interprets a few hundred plain moves, for the interpreter's own kernels 
 """
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
 
 import click
 
+from ipo.kernel_cache import prune_other_versions
 from machine.commands import load_machine
+
+OLD_CACHE_S = 7 * 86400.0
 
 # The demo's shapes: a rapid, feeds, both arc directions and a rational quadratic NURBS (quarter circle).
 WARMUP_PROGRAM = """\
@@ -83,5 +88,8 @@ def command(machine_file):
         # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
         # program as short as the one above does not reach
         parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
+    removed, freed = prune_other_versions(Path(os.environ["NUMBA_CACHE_DIR"]), OLD_CACHE_S)
+    if removed:
+        click.echo(f"vcnc warmup: removed {removed} cache(s) of other vcnc versions ({freed / 1e6:.1f} MB)")
     click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
                if compiled else "vcnc warmup: every kernel was already compiled (cached)")
