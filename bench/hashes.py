@@ -43,24 +43,17 @@ FIELDS = ("pos_mm", "inc_blu", "feed_mm_s", "limit", "line")
 EVENT_FIELDS = ("text", "rpm", "direction", "mist", "flood", "tool", "optional", "seconds")
 
 
-def _plan_periods():
-    try:
-        from ipo.feed.planner import plan_periods  # the layout of issue 15
-    except ImportError:
-        from ipo.feed import plan_periods
-    return plan_periods
-
-
 def stream_hashes(program: Path, machine: Path, accel_mode: str) -> dict:
     """SHA-1 per field of the whole period stream, the events, and the period count."""
     from ipo.config import load_config
+    from ipo.feed.planner import plan_periods
     from machine.controller import Controller, start_position
 
     config = dataclasses.replace(load_config(machine), accel_mode=accel_mode)
     prog = Controller(config).check(program)
     digests = {f: hashlib.sha1() for f in FIELDS + ("events",)}
     periods = 0
-    for item in _plan_periods()(prog.entities, config, method=config.method, start_mm=start_position(prog)):
+    for item in plan_periods(prog.entities, config, method=config.method, start_mm=start_position(prog)):
         if hasattr(item, "inc_blu"):
             for f in FIELDS:
                 digests[f].update(getattr(item, f).tobytes())

@@ -31,6 +31,8 @@ always starts at an anchor) and the v^2 it must end with.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
@@ -53,6 +55,32 @@ _STANDSTILL = 1e-9  # mm/s
 # with none, a segment through such a sample may have no path acceleration there at all, and
 # its gap's scale fell by _SCALE_STEP for many rounds (down to the staircase) before it passed
 _CURVE_ROOM = 1e-3
+
+
+class Geometry(NamedTuple):
+    """The window's samples as the kernels read them."""
+
+    s: np.ndarray  # arc length, mm
+    t: np.ndarray  # unit tangent, (n, 3)
+    kv: np.ndarray  # curvature vector, (n, 3), 1/mm
+
+
+class AxisLimits(NamedTuple):
+    """Per axis acceleration and jerk limits, and the period (a curvature step's jerk)."""
+
+    a_axis: np.ndarray  # mm/s^2
+    j_axis: np.ndarray  # mm/s^3
+    period_s: float
+
+
+class Segment(NamedTuple):
+    """One gap's jerk-limited segment, as jerk_profile.phases takes it."""
+
+    va: float  # start speed, mm/s
+    vp: float  # peak speed
+    vb: float  # end speed
+    a: float  # path acceleration limit, mm/s^2
+    j: float  # path jerk limit, mm/s^3
 
 
 @njit(cache=True)
@@ -138,21 +166,23 @@ def _rate(s, kv, k, i):
 
 
 @njit(cache=True)
-def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
-    """Which limits some axis is over with the geometry of sample k and the state v, acc, jk
-    (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0 if none; step: per axis,
+def _axes_over(geo, k, motion, lim, curved, step):
+    """Which limits some axis is over with the geometry of sample k and the state motion = (v,
+    acc, jk) (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0 if none; step: per axis,
     STEP_JERK_SHARE |dkv_i| / T where sample k is a piece joint at which the curvature steps
     by dkv (0 elsewhere). A jerk over its limit mostly through the coupling 3 kv_i v a is the
     acceleration's to lower too."""
+    s, t, kv = geo
+    v, acc, jk = motion
     over = 0
     for i in range(3):
-        if abs(t[k, i] * acc + kv[k, i] * v * v) > a_axis[i] * (1.0 + _SLACK):
+        if abs(t[k, i] * acc + kv[k, i] * v * v) > lim.a_axis[i] * (1.0 + _SLACK):
             over |= _ACC_OVER
         # axis jerk t_i j + 3 kv_i v a + kv_i' v^3, and where pieces meet the step's
         # STEP_JERK_SHARE v^2 |dkv_i| / T, which the periods around the joint see together
         # with the path's jerk on both sides (the caps hold it within half of J_i; at the
         # speed the segment has there it is often far less)
-        budget = j_axis[i] - step[i] * v * v - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
+        budget = lim.j_axis[i] - step[i] * v * v - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
         extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
         if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
             over |= _JERK_OVER | (_ACC_OVER if extra > 0.5 * budget else 0)
@@ -160,12 +190,13 @@ def _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step):
 
 
 @njit(cache=True)
-def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period_s):
+def _check(geo, x, lo, hi, seg, lim, curved):
     """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
     axes are checked at every sample and, with the geometry of the samples either side, where
     each phase starts (the acceleration peaks between samples)."""
+    s, kv = geo.s, geo.kv
     length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
     worst, worst_ratio = -1, 1.0
     axis_over = 0
     no_step = np.zeros(3)
@@ -185,8 +216,8 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period
         elif k == hi and k + 1 < s.shape[0] and s[k + 1] - s[k] <= _JOINT_MM:
             other = k + 1
         for i in range(3):
-            step[i] = STEP_JERK_SHARE * _step(kv, k, other, i) / period_s
-        axis_over |= _axes_over(s, t, kv, k, v, acc, jk, a_axis, j_axis, curved, step)
+            step[i] = STEP_JERK_SHARE * _step(kv, k, other, i) / lim.period_s
+        axis_over |= _axes_over(geo, k, (v, acc, jk), lim, curved, step)
     k = lo
     for q in range(1, 7):
         d = ss[q]
@@ -195,17 +226,17 @@ def _check(s, t, kv, x, lo, hi, va, vp, vb, a, j, a_axis, j_axis, curved, period
         while k + 1 < hi and s[k + 1] - s[lo] < d:
             k += 1
         for jq in (jj[q - 1], jj[q]):
-            axis_over |= _axes_over(s, t, kv, k, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
-            axis_over |= _axes_over(s, t, kv, k + 1, vv[q], aa[q], jq, a_axis, j_axis, curved, no_step)
+            axis_over |= _axes_over(geo, k, (vv[q], aa[q], jq), lim, curved, no_step)
+            axis_over |= _axes_over(geo, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
     return worst, axis_over
 
 
 @njit(cache=True)
-def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
-    """Make the worst sample of every run of samples where the segment passes above x_acc an
-    anchor; whether any was new."""
+def _anchor_peaks(s, x, lo, hi, seg, anchor):
+    """Make the worst sample of every run of samples where the segment (Segment) passes above
+    x_acc an anchor; whether any was new."""
     length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
     new = False
     best, best_r = -1, 1.0
     for k in range(lo, hi + 2):
@@ -224,9 +255,12 @@ def _anchor_peaks(s, x, lo, hi, va, vp, vb, a, j, anchor):
 
 
 @njit(cache=True)
-def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm, period_s):
+def plan(geo, x, lim, v0, x_end, straight_min_mm):
     """Anchors (sample indices), their speeds, and per gap the peak speed and the path
-    acceleration and jerk limits; converged is False if the rounds ran out."""
+    acceleration and jerk limits, over the samples geo (Geometry) under lim (AxisLimits);
+    converged is False if the rounds ran out."""
+    s, t, kv = geo
+    a_axis, j_axis = lim.a_axis, lim.j_axis
     n = s.shape[0]
     x = x.copy()
     for k in range(n):  # the look-ahead may ride a curvature cap with the help of s'' != 0
@@ -292,27 +326,24 @@ def plan(s, t, kv, x, a_axis, j_axis, v0, x_end, straight_min_mm, period_s):
                 continue
             top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), base)
             p = peak_speed(w[g], w[g + 1], length, top, ag[g], jg[g])
-            worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis, cv[g],
-                                 period_s)
+            worst, over = _check(geo, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
             if worst >= 0 and p > base:
                 low, high = base, p
                 for _b in range(24):
                     mid = 0.5 * (low + high)
-                    if _check(s, t, kv, x, lo, hi, w[g], mid, w[g + 1], ag[g], jg[g], a_axis, j_axis,
-                              cv[g], period_s)[0] < 0:
+                    if _check(geo, x, lo, hi, Segment(w[g], mid, w[g + 1], ag[g], jg[g]), lim, cv[g])[0] < 0:
                         low = mid
                     else:
                         high = mid
                 if low >= (1.0 - _PEAK_GIVE) * p:  # a slightly lower peak clears it
                     p = low
-                    worst, over = _check(s, t, kv, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], a_axis, j_axis,
-                                         cv[g], period_s)
+                    worst, over = _check(geo, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
             vp[g] = p
             if (worst >= 0 or over != 0) and rnd >= _ROUNDS // 2:
                 anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample
                 changed = True
             elif worst >= 0:
-                changed |= _anchor_peaks(s, x, lo, hi, w[g], p, w[g + 1], ag[g], jg[g], anchor)
+                changed |= _anchor_peaks(s, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), anchor)
             if over & _ACC_OVER:
                 scale_a[lo:hi] *= _SCALE_STEP
             if over & _JERK_OVER:

@@ -45,7 +45,8 @@ class Segments(NamedTuple):
 
 def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float, line: int) -> Segments:
     """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
-    idx, w, vp, ag, jg, ok = jerk_plan.plan(s, t, kv, x_acc, a_axis, j_axis, v0, 0.0, STRAIGHT_MIN_MM, period_s)
+    idx, w, vp, ag, jg, ok = jerk_plan.plan(jerk_plan.Geometry(s, t, kv), x_acc,
+                                            jerk_plan.AxisLimits(a_axis, j_axis, period_s), v0, 0.0, STRAIGHT_MIN_MM)
     if not ok:
         raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
     return Segments(idx, w, vp, ag, jg)
