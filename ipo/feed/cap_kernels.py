@@ -57,7 +57,12 @@ def axis_cap_at(t, k, v_max):
 @njit(cache=True, error_model="numpy")
 def curvature_cap_at(t, kv, k, a_max):
     """Largest x for which some path acceleration s'' keeps every axis within its limit, at
-    sample k (see ipo.feed.limits.curvature_cap)."""
+    sample k.
+
+    Axis i needs |t_i s'' + kv_i x| <= A_i: an interval for s'' centred on -kv_i x / t_i
+    with half-width A_i / |t_i|. All intervals meet iff every pair does, which bounds x
+    pairwise; an axis with t_i = 0 needs |kv_i| x <= A_i on its own.
+    """
     cap = inf
     for i in range(3):
         if not abs(t[k, i]) > TINY and abs(kv[k, i]) > TINY:

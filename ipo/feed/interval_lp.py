@@ -3,11 +3,12 @@
 Between samples k and k+1 the profile has one path acceleration s'' = (x_k+1 - x_k) / (2 ds)
 (x = v^2), and every axis must hold |t_i s'' + kv_i x| <= A_i at both ends. Those are rows
 p x_k + q x_k+1 <= r of a 2-variable programme (`interval_rows`); the backward pass asks for
-the largest x_k with some x_k+1 in [0, b_top] (`max_start`), the forward pass for the range of
-x_k+1 from a given x_k (`end_range`).
+the largest x_k with some x_k+1 in [0, b_top] (`max_start_from`), the forward pass for the
+range of x_k+1 from a given x_k (`end_range`).
 
-`max_start` is defined by vertex enumeration: the largest x_k over the vertices of every
-pair of (unit-normal) rows that meet all rows within a tolerance. The backward pass solves
+That largest x_k is defined by vertex enumeration: the largest x_k over the vertices of every
+pair of (unit-normal) rows that meet all rows within a tolerance (max_start in
+tests/ipo/feed/lp_reference.py enumerates them all). The backward pass solves
 5-6 million of these programmes on a 169k-block program, so `max_start_from` first tries
 the pair that was optimal in the interval before (neighbouring intervals are alike) and,
 when that vertex is certified optimal, enumerates only the rows that pass near it: the
@@ -121,18 +122,8 @@ def _near_vertex(r, n, tol, near, best, pair):
 
 
 @njit(cache=True)
-def max_start(rows, m, a_top, b_top):
-    """Largest x_k (<= a_top) with some x_k+1 in [0, b_top] meeting every row: a 2-variable
-    linear programme, solved at the vertices of its polygon. -1 if none is feasible."""
-    r = np.empty((m + 4, 3))
-    n = _unit_rows(rows, m, a_top, b_top, r)
-    pair = np.zeros(2, np.int64)
-    return min(_best_vertex(r, n, 1e-9 * max(1.0, b_top), -1.0, pair), a_top)
-
-
-@njit(cache=True)
 def _certified(r, n, tol, a_top, b_top, i, j, near, pair):
-    """max_start's value from the vertex of rows i < j if it can be certified there (steps
+    """The enumeration's value from the vertex of rows i < j if it can be certified there (steps
     1-3 of max_start_from), else -2; the optimum's pair into `pair`."""
     # 1. the hinted vertex
     det = r[i, 0] * r[j, 1] - r[i, 1] * r[j, 0]
@@ -215,7 +206,7 @@ def _vertex_guess(r, n, m):
 
 @njit(cache=True)
 def max_start_from(rows, m, a_top, b_top, r, pairs, near):
-    """max_start, bit for bit, trying first the pairs of rows in `pairs` (4,): the optimum of
+    """The enumeration's value, bit for bit, trying first the pairs of rows in `pairs` (4,): the optimum of
     the last interval and the one before it that differed (neighbouring intervals are
     alike; updated to this interval's), then a guess (_vertex_guess). r (m + 4, 3) and near (m + 4,) are scratch.
 

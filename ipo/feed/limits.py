@@ -10,8 +10,8 @@ import numpy as np
 from numba import njit
 
 from ipo.contracts import LIMIT_AXIS, LIMIT_CHORD, LIMIT_CURVATURE, LIMIT_DWELL, LIMIT_ROUGHNESS
-from ipo.feed.cap_kernels import (CORNER_SHARE, NEGLIGIBLE_STEP, CapRule, SampleGeometry, axis_cap_at,
-                                  combined_caps, curvature_cap_at, geometric_caps)
+from ipo.feed.cap_kernels import (CORNER_SHARE, NEGLIGIBLE_STEP, CapRule, SampleGeometry, axis_cap_at, combined_caps,
+                                  geometric_caps)
 from ipo.roughness import inclination_rad, roughness_feed_mm_s
 
 # The roughness cap is planned a hair below its value: the profile meets it at samples and
@@ -38,20 +38,6 @@ def axis_velocity_cap(t, v_max):
     out = np.empty(t.shape[0])
     for k in range(t.shape[0]):
         out[k] = axis_cap_at(t, k, v_max)
-    return out
-
-
-@njit(cache=True)
-def curvature_cap(t, kv, a_max):
-    """Largest x for which some path acceleration s'' keeps every axis within its limit.
-
-    Axis i needs |t_i s'' + kv_i x| <= A_i: an interval for s'' centred on -kv_i x / t_i
-    with half-width A_i / |t_i|. All intervals meet iff every pair does, which bounds x
-    pairwise; an axis with t_i = 0 needs |kv_i| x <= A_i on its own.
-    """
-    out = np.empty(t.shape[0])
-    for k in range(t.shape[0]):
-        out[k] = curvature_cap_at(t, kv, k, a_max)
     return out
 
 

@@ -6,7 +6,7 @@
 - `line_arc`: exact stepping along lines, arcs and helices.
 - `steppers`: `make_stepper`, the one way to get a stepper for an entity (the contract is
   `ipo.contracts.Steps`).
-- `reference_word`: per-period positions quantised to BLU (000 eq. 15–16); the production
+- `reference_word`: per-period positions quantised to BLU (000 §2.3); the production
   quantiser of the period stream.
 - `reference_pulse`: unit pulses by the 0.5 BLU rule (000 §2.4).
 - `chord_study`: `vcnc interp`'s study at a constant chord (000 §3, Fig. 7–9).

@@ -1,5 +1,6 @@
 """Reference-word (sampled-data) output, 000 §2.3: per-period positions quantised to the
-machine's basic length unit (BLU) and the axis velocities of eq. 16.
+machine's basic length unit (BLU). The axis velocities of eq. 16 are not a separate output:
+the period stream carries the path feed V and the increments, V dX / DS per period.
 
 Quantising each absolute position (rather than each increment) carries the rounding
 remainder from period to period: no error accumulates, every commanded position is within
@@ -39,18 +40,3 @@ def quantise(pos_mm: np.ndarray, blu_mm: float, start_blu: np.ndarray) -> tuple[
     inc = np.diff(q, axis=0, prepend=start.astype(np.int64)[None, :])
     end = q[-1].copy() if len(q) else start.astype(np.int64).copy()
     return inc, end
-
-
-def axis_velocities(pos_mm: np.ndarray, feed_mm_s: np.ndarray, start_mm: np.ndarray) -> np.ndarray:
-    """Axis velocities (N, 3) in mm/s: V * dX / DS per period (000 eq. 16), 0 where DS = 0."""
-    pos = checked_points(pos_mm, "pos_mm")
-    start = np.asarray(start_mm, dtype=np.float64)
-    if start.shape != (3,) or not np.isfinite(start).all():
-        raise ValueError(f"start_mm must be three finite numbers, got {start_mm!r}")
-    feed = np.asarray(feed_mm_s, dtype=np.float64)
-    if feed.shape != (len(pos),) or not np.isfinite(feed).all():
-        raise ValueError(f"feed_mm_s must be {len(pos)} finite numbers, got shape {feed.shape}")
-    delta = np.diff(pos, axis=0, prepend=start[None, :])
-    ds = np.sqrt(np.einsum("ij,ij->i", delta, delta))  # 000 eq. 16, DS(j+1)
-    scale = np.divide(feed, ds, out=np.zeros_like(ds), where=ds > 0)
-    return delta * scale[:, None]  # 000 eq. 16

@@ -19,9 +19,11 @@ import pytest
 from ipo.feed import interval_lp as lp
 from ipo.feed import lookahead as la
 from ipo.feed.planner import ACCEL_USE, plan_periods
-from ipo.feed.limits import STEP_JERK_SHARE, curvature_cap
+from ipo.feed.cap_kernels import curvature_cap_at
+from ipo.feed.limits import STEP_JERK_SHARE
 from ipo.contracts import PeriodBatch
 from ipo.feed.sampling import nurbs_table
+from tests.ipo.feed.lp_reference import max_start
 from tests.ipo.feed.test_nurbs_blend import CFG, A, assert_forward_to_the_end, finite_differences
 from tests.ipo.feed.test_nurbs_corners import random_cubic
 
@@ -74,7 +76,7 @@ def test_interval_programme_against_grid_search(seed):
     cap, b_top = rng.uniform(100, 4000), rng.uniform(0, 4000)
     rows = np.empty((12, 3))
     m = lp.interval_rows(t, kv, 0, 2 * ds, a_max, 1.0, rows)
-    best = lp.max_start(rows, m, cap, b_top)
+    best = max_start(rows, m, cap, b_top)
     assert best >= 0.0
     lo, hi = lp.end_range(rows, m, best)
     b = min(hi, b_top)
@@ -99,7 +101,8 @@ def test_profile_meets_the_limits_at_both_ends_of_every_interval():
     tab = nurbs_table(e)
     a_max = A * ACCEL_USE
     n = len(tab.s)
-    cap = np.minimum(e.feed_mm_s ** 2, curvature_cap(tab.t, tab.kv, a_max))
+    curvature = [curvature_cap_at(tab.t, tab.kv, k, a_max) for k in range(n)]
+    cap = np.minimum(e.feed_mm_s ** 2, curvature)
     x = la.plan(tab.s, tab.t, tab.kv, cap, a_max, np.ones(n - 1), 0.0, 0.0)
     assert np.all(x <= cap * (1 + 1e-12))
     d = 2 * np.diff(tab.s)

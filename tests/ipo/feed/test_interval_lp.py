@@ -1,5 +1,5 @@
 """The look-ahead's per-interval programme: the hinted solver returns the enumeration's value
-to the bit (max_start itself is checked against a grid search in test_accel_margin.py).
+to the bit (max_start, tests/ipo/feed/lp_reference.py, is checked against a grid search in test_accel_margin.py).
 
 Intervals are drawn to be hard for the shortcut: tangents that differ by 1e-12..1e-2 (rows
 nearly parallel), axes at rest, straight stretches (duplicate rows), sample spacings down
@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from ipo.feed import interval_lp as lp
+from tests.ipo.feed.lp_reference import max_start
 
 A_MAX = np.array([1000.0, 800.0, 1200.0]) * 0.985
 
@@ -45,7 +46,7 @@ def test_hinted_programme_is_the_enumeration_to_the_bit(seed):
             pairs[2:] = np.sort(rng.integers(0, m + 4, 2))
         before = pairs.copy()
         got = lp.max_start_from(rows, m, cap, b_top, unit, pairs, near)
-        assert got == lp.max_start(rows, m, cap, b_top), (seed, t, kv, ds, cap, b_top, before)
+        assert got == max_start(rows, m, cap, b_top), (seed, t, kv, ds, cap, b_top, before)
         hinted += bool(np.array_equal(before[:2], pairs[:2]))
     assert hinted > 0  # the shortcut itself was taken
 
@@ -67,5 +68,5 @@ def test_vertex_guess_is_the_optimum_of_most_unhinted_intervals():
         accepted += 0 <= i < j < n and lp._certified(unit, n, 1e-9 * max(1.0, b_top), cap, b_top, i, j, near,
                                                      pair) > -2.0
         got = lp.max_start_from(rows, m, cap, b_top, unit, np.full(4, -1, np.int64), near)
-        assert got == lp.max_start(rows, m, cap, b_top)
+        assert got == max_start(rows, m, cap, b_top)
     assert accepted > 0.9 * tried, (accepted, tried)

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings, strategies as st
 
-from ipo.fit.tolerance import FitSettings, fewest_ctrl, fit_polyline, max_deviation
+from ipo.fit.tolerance import FitSettings, fewest_ctrl, max_deviation
 from ipo.fit.rational import basis_matrix, evaluate, fit_rational, uniform_knots
+from tests.ipo.fit.polyline_fit import fit_polyline
 
 
 def _arc(radius, a0, a1, n, z=0.0):

@@ -10,7 +10,7 @@ from ipr.entities import Arc, Nurbs
 from ipo.interp.line_arc import ArcStepper
 from ipo.nurbs.kernel import curve_points
 from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
-from ipo.interp.reference_word import axis_velocities, quantise
+from ipo.interp.reference_word import checked_points, quantise
 
 BLU_MM = 1e-3
 
@@ -62,6 +62,22 @@ def test_quantise_empty_and_bad_input():
         quantise(np.zeros((2, 3)), BLU_MM, np.array([0.0, 0, 0]))
     with pytest.raises(ValueError):
         quantise(np.array([[np.nan, 0, 0]]), BLU_MM, np.array([0, 0, 0]))
+
+
+def axis_velocities(pos_mm: np.ndarray, feed_mm_s: np.ndarray, start_mm: np.ndarray) -> np.ndarray:
+    """Axis velocities (N, 3) in mm/s: V * dX / DS per period (000 eq. 16), 0 where DS = 0; the
+    reference word's second half, which the stream carries as the feed and the increments."""
+    pos = checked_points(pos_mm, "pos_mm")
+    start = np.asarray(start_mm, dtype=np.float64)
+    if start.shape != (3,) or not np.isfinite(start).all():
+        raise ValueError(f"start_mm must be three finite numbers, got {start_mm!r}")
+    feed = np.asarray(feed_mm_s, dtype=np.float64)
+    if feed.shape != (len(pos),) or not np.isfinite(feed).all():
+        raise ValueError(f"feed_mm_s must be {len(pos)} finite numbers, got shape {feed.shape}")
+    delta = np.diff(pos, axis=0, prepend=start[None, :])
+    ds = np.sqrt(np.einsum("ij,ij->i", delta, delta))  # 000 eq. 16, DS(j+1)
+    scale = np.divide(feed, ds, out=np.zeros_like(ds), where=ds > 0)
+    return delta * scale[:, None]  # 000 eq. 16
 
 
 def test_axis_velocities_eq16_hand_computed():
