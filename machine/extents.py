@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo.nurbs.subcurve import sub_curve
-from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid, group_by_type
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 # the extreme of a NURBS is decided to this (far below any BLU; well above rounding at 1e4 mm)
 EXTREME_TOL_MM = 1e-9
@@ -90,12 +90,6 @@ def arc_boxes(arcs: list[Arc]) -> tuple[np.ndarray, np.ndarray]:
             lo[passed, axis] = np.minimum(lo[passed, axis], coord)
             hi[passed, axis] = np.maximum(hi[passed, axis], coord)
     return lo, hi
-
-
-def arc_extent(arc: Arc) -> tuple[np.ndarray, np.ndarray]:
-    """arc_boxes of one arc."""
-    lo, hi = arc_boxes([arc])
-    return lo[0], hi[0]
 
 
 def _halves(pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -178,13 +172,9 @@ class Excursion(NamedTuple):
         return f"{'XYZ'[self.axis]} reaches {self.reach_mm:.4f} mm, {where} the travel limit {limit:.4f} mm"
 
 
-def travel_excursions(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
-    """Every motion that leaves the travel, one Excursion per axis and side, in line order."""
-    return excursions_of(group_by_type(list(motions)), lo_mm, hi_mm)
-
-
 def excursions_of(groups: dict[type, list], lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[Excursion]:
-    """travel_excursions of motions grouped by type (ipr.entities.group_by_type).
+    """Every motion of groups (motions grouped by type, ipr.entities.group_by_type) that leaves
+    the travel, one Excursion per axis and side, in line order.
 
     A straight move spans its start and end, and its start is the previous motion's
     end (or the start position, which the caller checks), so its end point suffices.
@@ -209,8 +199,3 @@ def excursions_of(groups: dict[type, list], lo_mm: np.ndarray, hi_mm: np.ndarray
             if hi[i] > hi_mm[i]:
                 out.append(Excursion(line, i, 1, float(hi[i])))
     return out
-
-
-def travel_violations(motions, lo_mm: np.ndarray, hi_mm: np.ndarray) -> list[tuple[int, str]]:
-    """(line, reason) for every motion that leaves the travel, one per axis and side."""
-    return [(x.line, x.reason(lo_mm, hi_mm)) for x in travel_excursions(motions, lo_mm, hi_mm)]

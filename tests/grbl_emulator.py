@@ -30,7 +30,8 @@ from collections import deque
 from dataclasses import dataclass, field
 
 from grbl_double_parser import ParserState
-from machine.increments.receiver import Endpoint, PtyEndpoint
+from machine.increments.receiver import Endpoint
+from pty_endpoint import PtyEndpoint
 
 BANNER = b"Grbl 1.1h ['$' for help]\r\n"
 JOG_CANCEL = 0x85

@@ -1,16 +1,15 @@
 """The drive end of the increment protocol: accepts DATA frames in sequence, buffers
 their periods, executes them at the period rate (or as fast as asked) and integrates
-the increments into an exact BLU position. Served over a pty pair or a 127.0.0.1
-socket from a thread, so the host side runs over pyserial like against real hardware.
+the increments into an exact BLU position. Served over a 127.0.0.1 socket from a thread
+(the tests also serve it over a pty pair: tests/pty_endpoint.py), so the host side runs over
+pyserial like against real hardware.
 """
 from __future__ import annotations
 
-import os
 import select
 import socket
 import threading
 import time
-import tty
 from collections import deque
 
 import numpy as np
@@ -159,22 +158,6 @@ class Endpoint:
             except OSError:
                 return False
         return True
-
-
-class PtyEndpoint(Endpoint):
-    """The receiver on a pty's master side; `port` is the slave device to open."""
-
-    def __init__(self, target, mangle=None):
-        super().__init__(target, mangle)
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.port = os.ttyname(self.slave)
-
-    def _run(self):
-        while not self._stop.is_set():
-            self._pump(self.master, lambda: os.read(self.master, 65536), lambda b: os.write(self.master, b))
-        os.close(self.master)
-        os.close(self.slave)
 
 
 class SocketEndpoint(Endpoint):

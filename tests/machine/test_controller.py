@@ -9,9 +9,10 @@ import pytest
 from ipo.contracts import PeriodBatch
 from ipr.entities import Arc, Line, Nurbs, Rapid
 from machine.drive import Drive, DriveLimits
-from machine.extents import arc_extent, nurbs_extent, travel_violations
+from machine.extents import arc_boxes, nurbs_extent
 from machine.realtime import Player
 from machine.trace import MemoryTrace
+from tests.machine.travel_check import travel_violations
 
 
 def arc_samples(arc: Arc, n=200001):
@@ -39,7 +40,7 @@ def arc_samples(arc: Arc, n=200001):
     Arc(6, (-1, 1, 0), (1, 1, 0), (0, 0, 0), "XY", False, 10.0),  # cw across the top
 ])
 def test_arc_extent_is_exact(arc):
-    lo, hi = arc_extent(arc)
+    (lo,), (hi,) = arc_boxes([arc])
     p = arc_samples(arc)
     np.testing.assert_allclose(lo, p.min(axis=0), atol=1e-8)
     np.testing.assert_allclose(hi, p.max(axis=0), atol=1e-8)

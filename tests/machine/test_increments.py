@@ -13,7 +13,8 @@ from ipr import parse_file
 from machine.drive import Drive, DriveLimits
 from machine.increments import frames as F
 from machine.increments.link import IncrementLink
-from machine.increments.receiver import IncrementReceiver, PtyEndpoint, SocketEndpoint
+from machine.increments.receiver import IncrementReceiver, SocketEndpoint
+from pty_endpoint import PtyEndpoint
 
 CFG = default_config()
 DEMO = Path(__file__).resolve().parents[2] / "programs" / "demo.nc"

@@ -17,7 +17,8 @@ from scipy.optimize import minimize_scalar
 
 from ipr import parse_text
 from ipr.entities import Nurbs
-from machine.extents import EXTREME_TOL_MM, curve_extreme, travel_violations
+from machine.extents import EXTREME_TOL_MM, curve_extreme
+from tests.machine.travel_check import travel_violations
 
 REPRODUCER = """G0 X-900 Y30 Z5
 G6.2 P3 K0 X-900 Y30 Z5 R1 F6000
