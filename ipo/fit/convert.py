@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ipo.errors import FIT_SETTINGS, IpoError
-from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
+from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, sharp_vertices, split_chains
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain
 from ipo.fit.quadratic import plan_chain_conic
@@ -58,6 +58,8 @@ class Frame:
 class ConvertReport:
     chains: int = 0  # chains of two moves or more (G1/G2/G3 without a break)
     sharp_corners: int = 0  # vertices kept sharp inside groups (a knot of multiplicity = degree)
+    double_knots: int = 0  # the other knots of multiplicity 2 (conic spans: the weights restart, the curve is tangent)
+    sharp_vertices: int = 0  # the chains' vertices that must stay sharp (ipo.fit.chains.sharp_vertices)
     feeds_merged: int = 0  # feed changes inside groups (all beyond the machine's reach)
     groups: int = 0
     moves_replaced: int = 0
@@ -276,6 +278,8 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     options = [replace(_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s),
                        joins=dialect == "g06.2", restore_blocks=_restore_cost(lines, c.moves[-1].line))
                for c in chains]
+    report.sharp_vertices = sum(len(sharp_vertices(c, o.tol_mm, o.accel_mm_s2, o.max_feed_mm_s, o.corner_deg))
+                                for c, o in zip(chains, options))
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
     for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
         frame = frames[chain.moves[0].line]
@@ -377,7 +381,9 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
             report.moves_replaced += len(moves)
             p = span.fit.degree
             if p > 1:
-                report.sharp_corners += (int(np.sum(np.diff(span.fit.knots) == 0)) - 2 * p) // (p - 1)
+                c0_knots = (int(np.sum(np.diff(span.fit.knots) == 0)) - 2 * p) // (p - 1)
+                report.sharp_corners += c0_knots - span.double_knots
+                report.double_knots += span.double_knots
     if not any_group:
         return None, False
     return out, after_group

@@ -50,6 +50,7 @@ class Span:
     fit: RationalFit | None = None
     data: np.ndarray | None = None  # the path the fit was checked against (polyline, densified)
     deviation_mm: float = 0.0
+    double_knots: int = 0  # knots of multiplicity 2 where the curve stays tangent (ipo.fit.weights), not corners
 
 
 def group_overhead(degree: int) -> int:

@@ -78,7 +78,8 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
         points, weights, knots = spline(items, DEGREE)
         fit = RationalFit(DEGREE, knots, weights, points, np.empty(0), np.empty(0), True)
         data = chain.points[a:v + 1]
-        spans.append(Span(move_at[a], move_at[v], fit_params(fit, data, a, at), data))
+        doubles = sum(1 for item in items if item[0] == "span" and item[4])
+        spans.append(Span(move_at[a], move_at[v], fit_params(fit, data, a, at), data, double_knots=doubles))
         v = a
     return _merge_kept(spans[::-1])
 
