@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ipo.fit.chains import Chain, sharp_vertices
+from ipo.fit.chains import Chain
 from ipo.fit.compiled import foot_params
 from ipo.fit.conic_plan import DEGREE, junctions, plan_kernel
-from ipo.fit.groups import Span
+from ipo.fit.groups import Span, sharp_of
 from ipo.fit.rational import RationalFit, SpanPolynomials
 from ipo.fit.weights import X, spline
 
@@ -53,7 +53,7 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     (ipo.fit.conic_plan); opt: ipo.fit.groups.FitOptions (tol_mm, the machine for sharp corners)."""
     n = len(chain.points) - 1
     sharp = np.zeros(n + 1, dtype=bool)
-    sharp[sharp_vertices(chain, opt.tol_mm, opt.accel_mm_s2, opt.max_feed_mm_s, opt.corner_deg)] = True
+    sharp[sharp_of(chain, opt)] = True
     cand = junctions(chain.points, chain.tan_in, chain.tan_out, chain.on_arc, sharp)
     is_end = np.zeros(n + 1, dtype=bool)
     is_end[0] = True
