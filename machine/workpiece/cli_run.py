@@ -51,8 +51,9 @@ def finish_workpiece(workpiece, result, surface_files):
     from machine.workpiece.surface_file import save_npz, save_stl
 
     surface = workpiece.surface()
-    click.echo(f"workpiece: removal {workpiece.wall_s:.3f} s for a run of {result.wall_s:.3f} s "
-               f"({workpiece.wall_s / max(result.wall_s, 1e-9):.2f}x), {workpiece.nodes_lowered:,} nodes cut "
+    click.echo(f"workpiece: removal {workpiece.wall_s:.3f} s (CPU {workpiece.cpu_s:.3f} s) for a run of "
+               f"{result.wall_s:.3f} s ({workpiece.wall_s / max(result.wall_s, 1e-9):.2f}x), ready "
+               f"{workpiece.wait_s:.3f} s after the run, {workpiece.nodes_lowered:,} nodes cut "
                f"({workpiece.nodes_lowered / max(workpiece.wall_s, 1e-9):.3g}/s), "
                f"{workpiece.nodes_evaluated:,} envelopes evaluated", err=True)
     for path in surface_files:

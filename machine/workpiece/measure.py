@@ -10,6 +10,9 @@ from its mean. Facets are the arches between consecutive valleys of the deviatio
 vertex over each valley; a valley must stand out by FACET_PROMINENCE of the profile's Rz): spacing is the valleys' median distance, depth the median height of each arch
 above the line joining its two valleys. The scallop across the passes is measured the same way on a
 profile across them, and set beside the classical cusp h = r - sqrt(r^2 - (s/2)^2).
+
+Where the program is known, the facets of its straight blocks are found by the Z-map's lines instead
+(chord_facets): the shape cannot show chords whose sagitta is as low as the BLU ripple.
 """
 from __future__ import annotations
 
@@ -42,12 +45,37 @@ def profile(surface: Surface, along: str, at_mm: float, lo_mm: float = -math.inf
     """(s_mm, d_mm): positions along X (along = "x", the row nearest y = at_mm) or Y, and the heights, or
     their deviation from `reference` (same shape as z_mm) when given, restricted to [lo_mm, hi_mm]."""
     values = surface.z_mm if reference is None else surface.z_mm - reference
-    if along == "x":
-        s, d = surface.x_mm, values[int(np.argmin(np.abs(surface.y_mm - at_mm)))]
-    else:
-        s, d = surface.y_mm, values[:, int(np.argmin(np.abs(surface.x_mm - at_mm)))]
+    s, at = _section(surface, along, at_mm)
+    d = values[at]
     keep = (s >= lo_mm) & (s <= hi_mm) & np.isfinite(d)
     return s[keep], d[keep]
+
+
+def _section(surface: Surface, along: str, at_mm: float) -> tuple[np.ndarray, tuple]:
+    """The positions along a profile and its index into the Z-map's arrays."""
+    if along == "x":
+        return surface.x_mm, (int(np.argmin(np.abs(surface.y_mm - at_mm))), slice(None))
+    return surface.y_mm, (slice(None), int(np.argmin(np.abs(surface.x_mm - at_mm))))
+
+
+def chord_facets(surface: Surface, along: str, at_mm: float, lo_mm: float, hi_mm: float, reference: np.ndarray,
+                 straight: set[int]) -> tuple[np.ndarray, np.ndarray]:
+    """(lengths, depths) in mm of the facets that straight blocks left along a profile, found by the lines
+    that cut its nodes rather than by its shape: each run of nodes cut by one straight block (a line in
+    `straight`) is a facet, but for the runs at the window's ends (cut short); its length is the run's
+    extent, its depth the most the deviation from the reference sinks below the chord joining its ends."""
+    s, at = _section(surface, along, at_mm)
+    d, lines = (surface.z_mm - reference)[at], surface.line[at]
+    keep = (s >= lo_mm) & (s <= hi_mm) & np.isfinite(d)
+    s, d, lines = s[keep], d[keep], lines[keep]
+    bounds = np.flatnonzero(np.diff(lines)) + 1
+    lengths, depths = [], []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b - a >= 3 and int(lines[a]) in straight:
+            chord = np.interp(s[a:b], [s[a], s[b - 1]], [d[a], d[b - 1]])
+            lengths.append(float(s[b] - s[a]))
+            depths.append(float(np.max(chord - d[a:b])))
+    return np.array(lengths), np.array(depths)
 
 
 def mean_line_kernel(step_mm: float, cutoff_mm: float) -> np.ndarray:

@@ -21,6 +21,7 @@ test_workpiece.py checks it against the per-segment minimum).
 from __future__ import annotations
 
 import math
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -29,7 +30,7 @@ from numba import njit
 from machine.workpiece.bounds import AX, AY, BX, BY, CORE, CORNER, run_table
 from machine.workpiece.chains import CHAIN_TOL_MM, MAX_SEGMENTS, build_chains
 from machine.workpiece.envelope import seg_distance
-from machine.workpiece.tiles import COUNTS, TILE, cut_tile, workspace
+from machine.workpiece.tiles import TILE, Batch, ZMap, cut_tile, workspace
 
 BLOCK = 4  # tiles along a block's side
 
@@ -66,15 +67,17 @@ def _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners):
     return n
 
 
-@njit(cache=True)
-def plan(pos, tool, nty, ntx, geo):
+@njit(cache=True, nogil=True)
+def plan(zm, bt):
     """STEP 1 and 2: (run starts, run table, per block the offsets of its runs in `listed`, listed, the
     blocks that have runs)."""
-    origin_x, origin_y, grid_mm, _ = geo
+    origin_x, origin_y, grid_mm = zm.origin_x, zm.origin_y, zm.grid_mm
+    nty, ntx = zm.tile_max.shape
+    pos = bt.pos
     nby, nbx = -(-nty // BLOCK), -(-ntx // BLOCK)
     starts = np.empty(pos.shape[0], np.int64)
     starts = starts[:build_chains(pos, CHAIN_TOL_MM, MAX_SEGMENTS, starts) + 1]
-    runs = run_table(pos, starts, tool[0], tool[1])
+    runs = run_table(pos, starts, bt.core, bt.corner)
     empty = np.empty(0, np.int64)
     n = _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, empty, empty)
     blocks, owners = np.empty(n, np.int64), np.empty(n, np.int64)
@@ -94,9 +97,9 @@ def plan(pos, tool, nty, ntx, geo):
 
 
 @njit(cache=True, nogil=True)
-def cut_blocks(blocks, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, offsets, listed, counts):
+def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
     """STEP 3 and 4 over the given blocks (any subset: blocks share no node)."""
-    nty, ntx = tile_max.shape
+    nty, ntx = zm.tile_max.shape
     nbx = -(-ntx // BLOCK)
     for u in range(blocks.shape[0]):
         b = blocks[u]
@@ -106,22 +109,29 @@ def cut_blocks(blocks, z, line, tile_max, geo, pos, lines, tool, stamp_first, st
         by, bx = b // nbx, b % nbx
         for ty in range(by * BLOCK, min(by * BLOCK + BLOCK, nty)):
             for tx in range(bx * BLOCK, min(bx * BLOCK + BLOCK, ntx)):
-                cut_tile(ty, tx, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, mine, ws, counts)
+                cut_tile(ty, tx, zm, bt, starts, runs, mine, ws, counts)
 
 
-def cut(z, line, tile_max, geo, pos, lines, tool, stamp_first, counts, threads=1):
-    """Lower z (ny, nx) along the segments pos[k] -> pos[k+1] (work mm) of the tool (core, corner); line[j, i]
-    takes lines[k] of the segment that set node (i, j); tile_max (TILE x TILE tiles) holds each tile's
-    highest node; geo: (origin_x, origin_y, grid_mm, floor_mm). stamp_first: the first segment counts even
-    when of zero length (the tool standing at the stream's start). counts (COUNTS, updated): (block, run)
-    pairs, searches, envelopes evaluated, nodes lowered."""
-    starts, runs, offsets, listed, touched = plan(pos, tool, *tile_max.shape, geo)
+def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int = 1) -> float:
+    """Lower zm.z along the batch's segments bt.pos[k] -> bt.pos[k+1]; zm.line[j, i] takes bt.lines[k] of the
+    segment that set node (i, j). counts (COUNTS, updated): (block, run) pairs, searches, envelopes
+    evaluated, nodes lowered. Returns the CPU seconds of the threads that cut (this one's and the pool's):
+    the removal's own, whatever else the process runs meanwhile."""
+    c0 = time.thread_time()
+    starts, runs, offsets, listed, touched = plan(zm, bt)
     parts = [np.ascontiguousarray(touched[k::threads]) for k in range(threads)]
-    tallies = [np.zeros(COUNTS, np.int64) for _ in parts]
-    args = (z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, offsets, listed)
+    tallies = np.zeros((threads, counts.shape[0]), np.int64)
+
+    def cut_part(k: int) -> float:
+        t0 = time.thread_time()
+        cut_blocks(parts[k], zm, bt, starts, runs, offsets, listed, tallies[k])
+        return time.thread_time() - t0
+
     if threads == 1:
-        cut_blocks(parts[0], *args, tallies[0])
+        cut_part(0)
+        pool_cpu_s = 0.0
     else:
         with ThreadPoolExecutor(threads) as pool:
-            list(pool.map(lambda k: cut_blocks(parts[k], *args, tallies[k]), range(threads)))
-    counts += sum(tallies)
+            pool_cpu_s = sum(pool.map(cut_part, range(threads)))
+    counts += tallies.sum(axis=0)
+    return time.thread_time() - c0 + pool_cpu_s

@@ -16,6 +16,7 @@ takes a node that is lower, or as low by an earlier segment (ties between level 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -30,6 +31,46 @@ NODES = TILE * TILE
 COUNTS = 4
 
 
+class ZMap(NamedTuple):
+    """The heights a batch lowers (the Workpiece's arrays, updated in place) and where their nodes are:
+    node (i, j) at (origin_x + i grid_mm, origin_y + j grid_mm)."""
+
+    z: np.ndarray  # (ny, nx) float32
+    line: np.ndarray  # (ny, nx) int32: the source line of the segment that cut each node (0: never cut)
+    tile_max: np.ndarray  # each TILE x TILE tile's highest node
+    origin_x: float
+    origin_y: float
+    grid_mm: float
+    floor_mm: float  # the stock's bottom: nothing is cut below it
+
+
+class Batch(NamedTuple):
+    """A batch of periods: the tool's tip swept along pos[k] -> pos[k + 1] (work mm)."""
+
+    pos: np.ndarray  # (n + 1, 3)
+    lines: np.ndarray  # (n,) int32: each segment's source line
+    core: float  # the tool (envelope.py's profile)
+    corner: float
+    stamp_first: bool  # the first segment counts even when of zero length (the tool standing at the start)
+
+
+class Workspace(NamedTuple):
+    """A block's scratch arrays (one set per thread): its listed runs' table (_near), the candidates'
+    bounds and keys, the tile's nodes (best height, its segment) and the kept runs' G*, s* per node."""
+
+    near: np.ndarray
+    scratch: np.ndarray
+    best: np.ndarray
+    idx: np.ndarray
+    cand: np.ndarray
+    cand_bound: np.ndarray
+    cand_key: np.ndarray
+    g_star: np.ndarray
+    s_star: np.ndarray
+    order: np.ndarray
+    kept: np.ndarray
+
+
 @njit(cache=True)
 def _wins(v, k, best, idx):
     """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
@@ -37,22 +78,25 @@ def _wins(v, k, best, idx):
 
 
 @njit(cache=True)
-def _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp):
+def _try(qx, qy, k, best, idx, bt, floor_mm, stamp):
     """The exact envelope of segment k (a zero-length one only as the stream's very first)."""
+    pos = bt.pos
     x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
     if x0 == x1 and y0 == y1 and z0 == z1 and not (stamp and k == 0):
         return best, idx
-    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, core, corner)[0], floor_mm)
+    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, bt.core, bt.corner)[0], floor_mm)
     if _wins(v, k, best, idx):
         return v, k
     return best, idx
 
 
 @njit(cache=True)
-def _search(qx, qy, s_star, best, idx, pos, a, b, run, core, corner, floor_mm, stamp):
-    """(best, idx, envelopes evaluated) at node q over the segments a .. b-1 of a run (STEP 4)."""
+def _search(q, s_star, best, idx, a, b, run, bt, floor_mm, stamp):
+    """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4)."""
+    qx, qy = q
+    pos = bt.pos
     if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
-        best, idx = _try(qx, qy, a, best, idx, pos, core, corner, floor_mm, stamp)
+        best, idx = _try(qx, qy, a, best, idx, bt, floor_mm, stamp)
         return best, idx, 1
     lo, hi = a, b - 1
     while lo < hi:
@@ -61,18 +105,18 @@ def _search(qx, qy, s_star, best, idx, pos, a, b, run, core, corner, floor_mm, s
             lo = mid
         else:
             hi = mid - 1
-    best, idx = _try(qx, qy, lo, best, idx, pos, core, corner, floor_mm, stamp)
+    best, idx = _try(qx, qy, lo, best, idx, bt, floor_mm, stamp)
     n = 1
     for k in range(lo + 1, b):
         n += 1
         if not _wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
             break
-        best, idx = _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp)
+        best, idx = _try(qx, qy, k, best, idx, bt, floor_mm, stamp)
     for k in range(lo - 1, a - 1, -1):
         n += 1
         if not _wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
             break
-        best, idx = _try(qx, qy, k, best, idx, pos, core, corner, floor_mm, stamp)
+        best, idx = _try(qx, qy, k, best, idx, bt, floor_mm, stamp)
     return best, idx, n
 
 
@@ -124,10 +168,11 @@ def _near(listed, runs):
 
 
 @njit(cache=True)
-def _candidates(mx, my, e_tile, top, floor_mm, near, listed, scratch, cand, cand_bound, cand_key):
+def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
     """STEP 3 for the tile centred at (mx, my): the listed runs whose distance bound is below top, with
-    that bound and their key (G where the line passes closest to the centre); (count, the lowest key's
-    place). The first loop has no branches, for the vector units."""
+    that bound and their key (G where the line passes closest to the centre) into ws; (count, the lowest
+    key's place). The first loop has no branches, for the vector units."""
+    near, scratch, cand, cand_bound, cand_key = ws.near, ws.scratch, ws.cand, ws.cand_bound, ws.cand_key
     count = listed.shape[0]
     for p in range(count):
         px, py = mx - near[NX0, p], my - near[NY0, p]
@@ -152,12 +197,10 @@ def _candidates(mx, my, e_tile, top, floor_mm, near, listed, scratch, cand, cand
 
 
 @njit(cache=True)
-def _search_nodes(r0, r1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept, best, idx, g_star, s_star, order,
-                  counts):
-    """Search the kept runs r0 .. r1-1 at each node of the tile whose first node is (i0, j0), in the order of
-    their G* there; returns the tile's highest node."""
-    origin_x, origin_y, grid_mm, floor_mm = geo
-    core, corner = tool
+def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
+    """Search the kept runs r0 .. r1-1 (ws.kept) at each node of the tile whose first node is (i0, j0), in
+    the order of their G* there; returns the tile's highest node."""
+    kept, best, idx, g_star, s_star, order = ws.kept, ws.best, ws.idx, ws.g_star, ws.s_star, ws.order
     top = -np.inf
     for m in range(NODES):
         if best[m] == -np.inf:
@@ -177,10 +220,9 @@ def _search_nodes(r0, r1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kep
             a = starts[c]
             if not _wins(g_star[r, m], a, best[m], idx[m]):
                 continue
-            best[m], idx[m], evaluated = _search(origin_x + (i0 + m % TILE) * grid_mm,
-                                                 origin_y + (j0 + m // TILE) * grid_mm, s_star[r, m],
-                                                 best[m], idx[m], pos, a, starts[c + 1], runs[c], core, corner,
-                                                 floor_mm, stamp_first and a == 0)
+            q = (zm.origin_x + (i0 + m % TILE) * zm.grid_mm, zm.origin_y + (j0 + m // TILE) * zm.grid_mm)
+            best[m], idx[m], evaluated = _search(q, s_star[r, m], best[m], idx[m], a, starts[c + 1], runs[c], bt,
+                                                 zm.floor_mm, bt.stamp_first and a == 0)
             counts[1] += 1
             counts[2] += evaluated
         top = max(top, best[m])
@@ -191,25 +233,27 @@ def _search_nodes(r0, r1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kep
 def workspace(listed, runs):
     """A block's scratch arrays (one set per thread)."""
     n = listed.shape[0]
-    return (_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64), np.empty(n, np.int64),
-            np.empty(n), np.empty(n), np.empty((n, NODES)), np.empty((n, NODES)), np.empty(n, np.int64),
-            np.empty(n, np.int64))
+    return Workspace(_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
+                     np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty((n, NODES)), np.empty((n, NODES)),
+                     np.empty(n, np.int64), np.empty(n, np.int64))
 
 
 @njit(cache=True)
-def cut_tile(ty, tx, z, line, tile_max, geo, pos, lines, tool, stamp_first, starts, runs, listed, ws, counts):
-    """STEP 3 and 4 for one tile; geo: (origin_x, origin_y, grid_mm, floor_mm); tool: (core, corner);
-    stamp_first: the batch's first segment counts even when of zero length; listed: the runs of its block
-    in program order; ws: its block's workspace."""
-    origin_x, origin_y, grid_mm, floor_mm = geo
-    core, corner = tool
-    near, scratch, best, idx, cand, cand_bound, cand_key, g_star, s_star, order, kept_runs = ws
+def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
+    """STEP 3 and 4 for one tile of zm (ZMap) by the batch bt (Batch), whose runs (removal.plan) start at
+    starts, with their table runs; listed: the runs of the tile's block in program order; ws: its block's
+    Workspace."""
+    z, line, tile_max, lines = zm.z, zm.line, zm.tile_max, bt.lines
+    origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
+    core = bt.core
+    best, idx, cand, cand_bound, g_star, s_star, kept_runs = (ws.best, ws.idx, ws.cand, ws.cand_bound, ws.g_star,
+                                                              ws.s_star, ws.kept)
     ny, nx = z.shape
     e_tile = 0.5 * (TILE - 1) * grid_mm * math.sqrt(2.0)
     i0, j0 = tx * TILE, ty * TILE  # node (i0 + m % TILE, j0 + m // TILE) is at origin + (i, j) g, as everywhere
     mx, my = origin_x + (i0 + 0.5 * (TILE - 1)) * grid_mm, origin_y + (j0 + 0.5 * (TILE - 1)) * grid_mm
     top = tile_max[ty, tx]
-    n, first = _candidates(mx, my, e_tile, top, floor_mm, near, listed, scratch, cand, cand_bound, cand_key)
+    n, first = _candidates(mx, my, e_tile, top, floor_mm, listed, ws)
     if n == 0:
         return
     for m in range(NODES):
@@ -233,10 +277,8 @@ def cut_tile(ty, tx, z, line, tile_max, geo, pos, lines, tool, stamp_first, star
         kept_runs[kept] = cand[q]
         kept += 1
         if step == 0:
-            top = _search_nodes(0, 1, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept_runs, best, idx,
-                                g_star, s_star, order, counts)
-    _search_nodes(1, kept, i0, j0, geo, pos, tool, stamp_first, starts, runs, kept_runs, best, idx, g_star,
-                  s_star, order, counts)
+            top = _search_nodes(0, 1, i0, j0, zm, bt, starts, runs, ws, counts)
+    _search_nodes(1, kept, i0, j0, zm, bt, starts, runs, ws, counts)
     new_top = -np.inf
     for m in range(NODES):
         j, i = j0 + m // TILE, i0 + m % TILE

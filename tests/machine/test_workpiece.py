@@ -18,8 +18,9 @@ from machine.workpiece.build import build_workpiece
 from machine.workpiece.figures import surface_figures
 from machine.workpiece.envelope import envelope
 from machine.workpiece.removal import cut as cut_batch
-from machine.workpiece.tiles import COUNTS, TILE
+from machine.workpiece.tiles import COUNTS, TILE, Batch, ZMap
 from machine.workpiece.measure import profile_figures
+from machine.workpiece import zmap
 
 F32_MM = 2e-6  # the heights are stored in float32: 1 nm steps at these heights, 2 nm allowed
 
@@ -306,8 +307,8 @@ def test_the_update_is_every_segment_at_every_node(core, corner):
             tile_max = np.zeros((-(-z.shape[0] // TILE), -(-z.shape[1] // TILE)))
             counts = np.zeros(COUNTS, np.int64)
             for pos, pos_lines, stamp in batches:
-                cut_batch(z, line, tile_max, (*origin, grid_mm, floor_mm), pos, pos_lines, (core, corner), stamp,
-                          counts, threads)
+                cut_batch(ZMap(z, line, tile_max, *origin, grid_mm, floor_mm),
+                          Batch(pos, pos_lines, core, corner, stamp), counts, threads)
             assert np.array_equal(z, want_z)
             # a node's line names a segment that cut it to its height: the reference's, or one whose
             # envelope there is the same to float64 rounding (the two ends of a joint, level passes)
@@ -316,6 +317,22 @@ def test_the_update_is_every_segment_at_every_node(core, corner):
                 mine, theirs = (envelope(i * grid_mm, j * grid_mm, *path[n - 1], *path[n], core, corner)[0]
                                 for n in (line[j, i], want_line[j, i]))
                 assert max(mine, floor_mm) == pytest.approx(max(theirs, floor_mm), abs=1e-12)
+
+
+def test_the_removal_thread_leaves_the_heights_of_one_batch(tmp_path, monkeypatch):
+    """The removal thread cuts the periods in batches of HANDOFF_PERIODS while the run goes on: the heights
+    are the same, to the bit, as those of the whole program cut in one batch at the end (rounding to float32
+    is monotone), through a tool change (each batch keeps the cutter it was handed over with)."""
+    tools = {1: Tool(ball_radius_mm=1.0, diameter_mm=2.0, flutes=2), 2: Tool(shape="flat", diameter_mm=1.5, flutes=2)}
+    raster = raster_program(0.3, 7, 5.0, 0.5, 1500.0).replace("G0 Z5\nM2", "G0 Z5\nT2 M6\nG0 X1 Y2\nG1 Z-0.7 X4 Y3\nG0 Z5\nM2")
+    surfaces = {}
+    for handoff in (1 << 30, 150, 1):
+        monkeypatch.setattr(zmap, "HANDOFF_PERIODS", handoff)
+        surfaces[handoff] = cut(tmp_path, raster, "0,0,-2,5,4,0", 20.0, tools=tools)
+    whole = surfaces[1 << 30]
+    assert whole.z_mm.min() < -0.6  # the flat T2's ramp cut after the change (the raster is 0.5 deep)
+    for handoff in (150, 1):
+        assert np.array_equal(surfaces[handoff].z_mm, whole.z_mm)
 
 
 @pytest.mark.parametrize("compensation, depth_mm", [("G43 H2", 1.0), ("G49", 1.5), ("G43.1 Z0.3", 1.2)])

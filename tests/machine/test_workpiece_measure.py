@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from machine.workpiece.measure import classical_scallop_mm, detrend, period_mm, profile_figures
+from machine.workpiece.measure import chord_facets, classical_scallop_mm, detrend, period_mm, profile_figures
+from machine.workpiece.zmap import Surface
 
 
 def test_the_mean_line_follows_a_curved_form():
@@ -47,3 +48,25 @@ def test_a_flat_floor_has_no_pass_spacing():
     y = 1.04 + 0.08 * np.arange(100)
     fig = profile_figures(y, np.where((y > 3.0) & (y < 7.0), -1.0, 0.0), form_removed=False, periodic=True)
     assert fig.facet_spacing_mm is None and fig.facet_depth_um == 0.0
+
+
+def test_chord_facets_are_the_pieces_each_straight_block_cut():
+    """A row cut by blocks 1 mm long (lines 10, 11, ...), each leaving a parabolic arch sinking `sag` below
+    the chord of its ends, at the first of its nodes of 20 um: the facets found by the lines are the whole
+    blocks inside the window (not the two it cuts short, not the arc on line 99), 1 mm long, sag deep,
+    however low the arches against a ripple the shape-found facets would need to stand out of."""
+    step, sag = 0.02, np.array([0.3, 0.5, 0.4, 0.6, 0.2, 0.5]) * 1e-3
+    x = np.arange(0, 300) * step  # 0 .. 5.98 mm: six blocks of 50 nodes
+    block = np.arange(300) // 50
+    t = (np.arange(300) % 50) / 49.0
+    dev = -sag[block] * 4 * t * (1 - t) + 1e-4 * (block % 2)  # each block at its own level
+    line = (10 + block).astype(np.int32)
+    line[block == 3] = 99  # not a straight block
+    y = np.array([0.0, 1.0])
+    z = np.vstack([dev, dev]).astype(np.float64)
+    surf = Surface(x, y, z, np.vstack([line, line]))
+    lengths, depths = chord_facets(surf, "x", 0.0, 0.5, 5.5, np.zeros_like(z), {10, 11, 12, 13, 14, 15})
+    # window 0.5 .. 5.5 cuts blocks 0 and 5 short; block 3 is line 99: blocks 1, 2, 4 remain
+    assert lengths == pytest.approx([1.0, 1.0, 1.0], abs=1e-12)
+    # the arch's lowest node: t = 24/49 or 25/49, 4 t (1 - t) = 2400/2401
+    assert depths == pytest.approx(sag[[1, 2, 4]] * 2400 / 2401, rel=1e-9)
