@@ -20,7 +20,9 @@ The derivative scale h (the chord) gave the lowest peak |dkappa/ds| of the scale
 
 d_a and d_b grow together (each up to its move's reach) to the largest that keeps the
 quintic within P of the programmed path (ipo.feed.blends.nurbs_corner.deviation): the
-longer the joint, the gentler its curvature ramp. It is taken only where its cap on v^2
+longer the joint, the gentler its curvature ramp. A corner also tries each move at its whole
+reach with only the other one shrunk, and keeps the fastest of the three (g1_lhchips4's lead-out
+arcs meet 0.3 mm polyline moves: 1.2 % off its first 400 lines' cycle). It is taken only where its cap on v^2
 beats the alternative: at a tangent joint the curvature step's cap, at a corner the stop
 (x_min) and the cubic's cap (its steps and its peak curvature).
 """
@@ -65,15 +67,16 @@ def quintic_x(ctrl: np.ndarray, a_mm_s2: float, j_mm_s3: float) -> float:
         return float(min(a_mm_s2 / k_max, (j_mm_s3 / k_max**2) ** (2.0 / 3.0), (j_mm_s3 / rate) ** (2.0 / 3.0)))
 
 
-def _sized(before: Side, after: Side, corner: np.ndarray, tol_mm: float, reach_a: float, reach_b: float
-           ) -> tuple[float, float, np.ndarray] | None:
-    """(d_a, d_b, control points) of a long joint within tol_mm: both reaches scaled by one
-    factor, from 1 down by the ratio of the deviation to P (the deviation grows about
-    linearly with the scale at a corner, quadratically at a tangent joint: the square root
-    of the ratio undershoots neither); None where _TRIES shrinks find none."""
+def _sized(before: Side, after: Side, corner: np.ndarray, tol_mm: float, reach_a: float, reach_b: float,
+           shrink_a: bool = True, shrink_b: bool = True) -> tuple[float, float, np.ndarray] | None:
+    """(d_a, d_b, control points) of a long joint within tol_mm: the reaches (those with
+    shrink_a / shrink_b) scaled by one factor, from 1 down by the ratio of the deviation to P
+    (the deviation grows about linearly with the scale at a corner, quadratically at a
+    tangent joint: the square root of the ratio undershoots neither); None where _TRIES
+    shrinks find none."""
     scale = 1.0
     for _ in range(_TRIES):
-        d_a, d_b = scale * reach_a, scale * reach_b
+        d_a, d_b = (scale if shrink_a else 1.0) * reach_a, (scale if shrink_b else 1.0) * reach_b
         p_a, t_a = before.at(d_a)
         p_b, t_b = after.at(d_b)
         ctrl = hermite_quintic(p_a, t_a, before.kv(d_a), p_b, t_b, after.kv(d_b))
@@ -114,8 +117,11 @@ def g2_joint(before: Side, after: Side, corner: np.ndarray, tol_mm: float, reach
     corner_stop = x_min if cubic_radius_mm is not None else 0.0  # a corner's joint must beat its stop
     if not (min(x_hope, x_moves) > min(x_alt, x_moves) and x_hope >= corner_stop):
         return None  # not worth sizing: the joint could not beat the alternative
-    found = _sized(before, after, corner, tol_mm, reach_a, reach_b)
-    if found is None:
+    # a corner also tries each move at its whole reach with only the other shrunk: next to a
+    # short move the common scale would leave most of the long one unused
+    shrinks = [(True, True)] + ([(True, False), (False, True)] if cubic_radius_mm is not None else [])
+    found = [f for f in (_sized(before, after, corner, tol_mm, reach_a, reach_b, *sh) for sh in shrinks) if f]
+    if not found:
         return None
-    x_g2 = quintic_x(found[2], a, j)
+    x_g2, found = max(((quintic_x(f[2], a, j), f) for f in found), key=lambda c: c[0])
     return found if min(x_g2, x_moves) > min(x_alt, x_moves) and x_g2 >= corner_stop else None

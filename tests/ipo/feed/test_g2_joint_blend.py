@@ -16,7 +16,8 @@ from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.sampling import nurbs_table
 from ipr.entities import Arc, Line, Nurbs, PathControl
-from tests.ipo.feed.test_jerk_profile import CFG, assert_within_limits, programmed_points, random_arc_chain, run
+from tests.ipo.feed.test_jerk_profile import (CFG, assert_within_limits, programmed_points, random_arc_chain,
+                                           random_nurbs_path, run)
 from tests.ipo.feed.test_nurbs_blend import distance_to_polyline
 
 CORNERS = FeedPlanner(CFG).corners
@@ -130,12 +131,14 @@ def test_tangent_line_arc_joints_are_g2_within_p_and_faster(monkeypatch):
     assert len(pos) < 0.9 * len(without_joints(monkeypatch, ents))
 
 
-@pytest.mark.parametrize("kind,seed", [("tangent", s) for s in range(3)] + [("corners", s) for s in range(3)])
-def test_random_joints_next_to_arcs_within_the_limits_and_p(kind, seed):
-    """Tangent chains (curvature steps only) and arc chains with 3-D corners (helices, arc-arc
-    and line-arc corners at random angles)."""
+@pytest.mark.parametrize("kind,seed", [("tangent", s) for s in range(3)] + [("corners", s) for s in range(3)]
+                         + [("nurbs", s) for s in range(2)])
+def test_random_joints_next_to_arcs_and_nurbs_within_the_limits_and_p(kind, seed):
+    """Tangent chains (curvature steps only), arc chains with 3-D corners (helices, arc-arc
+    and line-arc corners at random angles) and rational NURBS meeting lines at 3-D corners
+    (every joint there is next to a NURBS)."""
     rng = np.random.default_rng(200 + seed)
-    ents = tangent_chain(rng) if kind == "tangent" else random_arc_chain(rng)
+    ents = {"tangent": tangent_chain, "corners": random_arc_chain, "nurbs": random_nurbs_path}[kind](rng)
     assert built(ents)[1], "no joint took the quintic"
     pos = run(ents)
     assert_within_limits(pos)
