@@ -20,9 +20,9 @@ The derivative scale h (the chord) gave the lowest peak |dkappa/ds| of the scale
 
 d_a and d_b grow together (each up to its move's reach) to the largest that keeps the
 quintic within P of the programmed path (ipo.feed.blends.nurbs_corner.deviation): the
-longer the joint, the gentler its curvature ramp. A corner also tries each move at its whole
-reach with only the other one shrunk, and keeps the fastest of the three (g1_lhchips4's lead-out
-arcs meet 0.3 mm polyline moves: 1.2 % off its first 400 lines' cycle). It is taken only where its cap on v^2
+longer the joint, the gentler its curvature ramp. A corner between moves of uneven reach
+also tries the shorter one whole with only the longer one shrunk, and keeps the faster
+(g1_lhchips4's lead-out arcs meet 0.3 mm polyline moves: 1.2 % off its first 400 lines' cycle). It is taken only where its cap on v^2
 beats the alternative: at a tangent joint the curvature step's cap, at a corner the stop
 (x_min) and the cubic's cap (its steps and its peak curvature).
 """
@@ -39,6 +39,7 @@ from ipo.feed.blends.nurbs_corner import Side, deviation
 _CHECK = 65  # points checked along the quintic for its deviation
 _CAP_SAMPLES = 257  # points of the quintic its curvature caps are read from
 _TRIES = 12  # shrinks of the joint's reach before it is given up
+_UNEVEN = 2.0  # a corner whose moves' reaches differ more than this also tries the short one whole
 _TOL_USE = 0.99  # the sampled deviation is kept this far within P (the samples miss a hair between them)
 _U_CHECK = np.linspace(0.0, 1.0, _CHECK)
 _BERNSTEIN = np.array([[comb(5, i) * u**i * (1 - u) ** (5 - i) for i in range(6)] for u in _U_CHECK])
@@ -117,10 +118,12 @@ def g2_joint(before: Side, after: Side, corner: np.ndarray, tol_mm: float, reach
     corner_stop = x_min if cubic_radius_mm is not None else 0.0  # a corner's joint must beat its stop
     if not (min(x_hope, x_moves) > min(x_alt, x_moves) and x_hope >= corner_stop):
         return None  # not worth sizing: the joint could not beat the alternative
-    # a corner also tries each move at its whole reach with only the other shrunk: next to a
-    # short move the common scale would leave most of the long one unused
-    shrinks = [(True, True)] + ([(True, False), (False, True)] if cubic_radius_mm is not None else [])
-    found = [f for f in (_sized(before, after, corner, tol_mm, reach_a, reach_b, *sh) for sh in shrinks) if f]
+    found = [_sized(before, after, corner, tol_mm, reach_a, reach_b)]
+    if cubic_radius_mm is not None and max(reach_a, reach_b) > _UNEVEN * min(reach_a, reach_b):
+        # next to a short move the common scale leaves most of the long one unused: the short
+        # one at its whole reach, only the long one shrunk
+        found.append(_sized(before, after, corner, tol_mm, reach_a, reach_b, reach_a > reach_b, reach_b > reach_a))
+    found = [f for f in found if f is not None]
     if not found:
         return None
     x_g2, found = max(((quintic_x(f[2], a, j), f) for f in found), key=lambda c: c[0])
