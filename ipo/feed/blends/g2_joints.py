@@ -41,6 +41,8 @@ _CAP_SAMPLES = 257  # points of the quintic its curvature caps are read from
 _TRIES = 12  # shrinks of the joint's reach before it is given up
 _UNEVEN = 2.0  # a corner whose moves' reaches differ more than this also tries the short one whole
 _TOL_USE = 0.99  # the sampled deviation is kept this far within P (the samples miss a hair between them)
+_SAGITTA_SHARE = 0.002  # of P: how far the moves' checking polylines may cut inside their curves
+_SIDE_POINTS_MIN, _SIDE_POINTS_MAX = 65, 4097
 _U_CHECK = np.linspace(0.0, 1.0, _CHECK)
 _BERNSTEIN = np.array([[comb(5, i) * u**i * (1 - u) ** (5 - i) for i in range(6)] for u in _U_CHECK])
 
@@ -76,12 +78,18 @@ def _sized(before: Side, after: Side, corner: np.ndarray, tol_mm: float, reach_a
     tangent joint: the square root of the ratio undershoots neither); None where _TRIES
     shrinks find none."""
     scale = 1.0
+    curvature_a, curvature_b = np.linalg.norm(before.kv(0.0)), np.linalg.norm(after.kv(0.0))
     for _ in range(_TRIES):
         d_a, d_b = (scale if shrink_a else 1.0) * reach_a, (scale if shrink_b else 1.0) * reach_b
         p_a, t_a = before.at(d_a)
         p_b, t_b = after.at(d_b)
-        ctrl = hermite_quintic(p_a, t_a, before.kv(d_a), p_b, t_b, after.kv(d_b))
-        over = deviation(_BERNSTEIN @ ctrl, before, after, d_a, d_b, corner) / (_TOL_USE * tol_mm)
+        k_a, k_b = before.kv(d_a), after.kv(d_b)
+        ctrl = hermite_quintic(p_a, t_a, k_a, p_b, t_b, k_b)
+        # the moves as polylines whose chords' sagitta k c^2 / 8 stays within _SAGITTA_SHARE P
+        chords = max(d_a * np.sqrt(max(curvature_a, np.linalg.norm(k_a)) / (8.0 * _SAGITTA_SHARE * tol_mm)),
+                     d_b * np.sqrt(max(curvature_b, np.linalg.norm(k_b)) / (8.0 * _SAGITTA_SHARE * tol_mm)))
+        over = deviation(_BERNSTEIN @ ctrl, before, after, d_a, d_b, corner,
+                         int(np.clip(np.ceil(chords) + 1, _SIDE_POINTS_MIN, _SIDE_POINTS_MAX))) / (_TOL_USE * tol_mm)
         if over <= 1.0:
             return d_a, d_b, ctrl
         scale *= min(0.95, 1.0 / np.sqrt(over))
