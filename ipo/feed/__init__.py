@@ -10,7 +10,8 @@ machine stands).
   curve the planner cannot follow).
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
   the NURBS corners (`nurbs_corner`), the curvature-continuous corners of S-curve mode
-  (`curvature_continuous`) and their compiled kernels (`compiled`).
+  (`curvature_continuous` between lines, `g2_joints` next to arcs and NURBS) and their
+  compiled kernels (`compiled`).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
 - `analytic`: the analytic pieces' points, tangents and curvature by arc length, compiled;
   `arcs`: G2/G3 arcs laid out as such pieces (and trimmed by their blends), compiled.
@@ -23,7 +24,7 @@ machine stands).
   two-variable programme of one interval that its backward pass solves per sample.
 - `scurve`: S-curve mode's window: jerk-limited segments committed and put out by period;
   `jerk_plan` finds them (anchors, passes, checks), `jerk_profile` holds the double-S closed
-  forms.
+  forms and the time line of a chain of segments.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
 - `emission`: a refined profile -> the period grid -> quantised positions -> `PeriodBatch`;

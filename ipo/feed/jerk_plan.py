@@ -190,6 +190,28 @@ def _axes_over(geo, k, motion, lim, curved, step):
 
 
 @njit(cache=True)
+def _x_ratio(v, xk):
+    """v^2 / x_acc where the speed passes above x_acc at a sample (beyond rounding), else 1."""
+    if v * v > xk * (1.0 + 1e-6) + 1e-9:
+        return v * v / max(xk, 1e-300)
+    return 1.0
+
+
+@njit(cache=True)
+def _above_x(s, x, lo, hi, seg):
+    """Whether the segment (Segment) passes above x_acc at some sample of its gap: the speeds
+    alone, for the peak's bisection in step 4 (the axes are checked once, at the peak it
+    settles on)."""
+    length = s[hi] - s[lo]
+    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
+    for k in range(lo, hi + 1):
+        v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+        if _x_ratio(v, x[k]) > 1.0:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _check(geo, x, lo, hi, seg, lim, curved):
     """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
     axes are checked at every sample and, with the geometry of the samples either side, where
@@ -206,10 +228,9 @@ def _check(geo, x, lo, hi, seg, lim, curved):
         _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
         if k == hi:
             jk = jj[6]  # the end of the last ramp
-        if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
-            r = v * v / max(x[k], 1e-300)
-            if r > worst_ratio:
-                worst, worst_ratio = k, r
+        r = _x_ratio(v, x[k])
+        if r > worst_ratio:
+            worst, worst_ratio = k, r
         other = -1  # the sample across a piece joint at a gap's end
         if k == lo and k > 0 and s[k] - s[k - 1] <= _JOINT_MM:
             other = k - 1
@@ -225,9 +246,9 @@ def _check(geo, x, lo, hi, seg, lim, curved):
             continue
         while k + 1 < hi and s[k + 1] - s[lo] < d:
             k += 1
-        for jq in (jj[q - 1], jj[q]):
-            axis_over |= _axes_over(geo, k, (vv[q], aa[q], jq), lim, curved, no_step)
-            axis_over |= _axes_over(geo, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
+        jq = max(abs(jj[q - 1]), abs(jj[q]))  # the axes see |jerk|: the larger one either side covers both
+        axis_over |= _axes_over(geo, k, (vv[q], aa[q], jq), lim, curved, no_step)
+        axis_over |= _axes_over(geo, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
     return worst, axis_over
 
 
@@ -243,8 +264,7 @@ def _anchor_peaks(s, x, lo, hi, seg, anchor):
         r = 1.0
         if k <= hi:
             v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
-            if v * v > x[k] * (1.0 + 1e-6) + 1e-9:
-                r = v * v / max(x[k], 1e-300)
+            r = _x_ratio(v, x[k])
         if r > best_r:
             best, best_r = k, r
         elif r <= 1.0 and best >= 0:
@@ -331,7 +351,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
                 low, high = base, p
                 for _b in range(24):
                     mid = 0.5 * (low + high)
-                    if _check(geo, x, lo, hi, Segment(w[g], mid, w[g + 1], ag[g], jg[g]), lim, cv[g])[0] < 0:
+                    if not _above_x(s, x, lo, hi, Segment(w[g], mid, w[g + 1], ag[g], jg[g])):
                         low = mid
                     else:
                         high = mid
@@ -359,42 +379,3 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
             break
     return idx, w, vp, ag, jg, converged
 
-
-@njit(cache=True)
-def durations(s, idx, w, vp, ag, jg):
-    """Duration of each gap's segment."""
-    m = idx.shape[0]
-    out = np.zeros(m - 1)
-    for g in range(m - 1):
-        length = s[idx[g + 1]] - s[idx[g]]
-        if length > 0.0:
-            out[g] = phases(w[g], vp[g], w[g + 1], length, ag[g], jg[g])[0][7]
-    return out
-
-
-@njit(cache=True)
-def arc_lengths_at(times, s, idx, w, vp, ag, jg, t_start):
-    """Arc length at each time (from the first anchor; times ascending within the gaps'
-    total) and the gap each falls in; t_start[g] is when gap g begins."""
-    out = np.empty(times.shape[0])
-    gap = np.empty(times.shape[0], np.int64)
-    m = idx.shape[0]
-    g = 0
-    while g + 1 < m - 1 and t_start[g + 1] <= times[0]:
-        g += 1
-    length = s[idx[g + 1]] - s[idx[g]]
-    tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
-    for q in range(times.shape[0]):
-        tq = times[q]
-        if g + 1 < m - 1 and t_start[g + 1] <= tq:
-            while g + 1 < m - 1 and t_start[g + 1] <= tq:
-                g += 1
-            length = s[idx[g + 1]] - s[idx[g]]
-            tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
-        if length <= 0.0:
-            out[q] = s[idx[g + 1]]
-        else:
-            d = state(tt, ss, vv, aa, jj, tq - t_start[g])[0]
-            out[q] = s[idx[g]] + min(max(d, 0.0), length)
-        gap[q] = g
-    return out, gap

@@ -65,11 +65,30 @@ def _boundary(v, d, a, j, ok, bad):
 @njit(cache=True)
 def reach(v, d, a, j):
     """The largest w >= v with transition_distance(v, w) <= d (the same as the largest speed
-    from which v is reached within d: the distance is symmetric in its speeds)."""
-    hi = v + max(1.0, v)
-    while transition_distance(v, hi, a, j) <= d:
-        hi = v + 2.0 * (hi - v)
-    return _boundary(v, d, a, j, v, hi)
+    from which v is reached within d: the distance is symmetric in its speeds). Closed form:
+    the look-ahead's passes call this once per anchor and round, so it is most of the plan.
+    With dv = w - v, d = (v + dv / 2) T(dv): a quadratic in dv where the change reaches a
+    (dv >= a^2 / j), else with u = sqrt(dv) the cubic u^3 + 2 v u = d sqrt(j), one real root."""
+    if d <= 0.0:
+        return v
+    dv_a = a * a / j
+    if d >= (v + 0.5 * dv_a) * 2.0 * a / j:
+        # dv^2 / (2a) + (v / a + a / (2j)) dv + (v a / j - d) = 0, the positive root without cancellation
+        b = v / a + 0.5 * a / j
+        c = d - v * a / j
+        dv = 2.0 * c / (b + np.sqrt(b * b + 2.0 * c / a))
+    else:
+        p, q = 2.0 * v, d * np.sqrt(j)
+        r = np.sqrt(0.25 * q * q + p**3 / 27.0)
+        m = np.cbrt(0.5 * q + r)
+        u = m - p / (3.0 * m) if m > 0.0 else 0.0
+        for _ in range(3):  # Newton polishes Cardano's root where p dominates and it cancels
+            u = max(u - (u**3 + p * u - q) / (3.0 * u * u + p), 0.0)
+        dv = u * u
+    w = v + dv
+    while w > v and transition_distance(v, w, a, j) > d:  # rounding: the speed must still fit
+        w = max(np.nextafter(w, 0.0), v)
+    return w
 
 
 @njit(cache=True)
@@ -180,3 +199,44 @@ def time_at(tt, ss, vv, aa, jj, dist):
         if hi - lo <= 1e-15:
             break
     return u
+
+
+@njit(cache=True)
+def durations(s, idx, w, vp, ag, jg):
+    """Duration of each gap's segment: anchors at samples idx of arc lengths s, their speeds
+    w, and per gap the peak speed vp and the path limits ag, jg (ipo.feed.jerk_plan.plan)."""
+    m = idx.shape[0]
+    out = np.zeros(m - 1)
+    for g in range(m - 1):
+        length = s[idx[g + 1]] - s[idx[g]]
+        if length > 0.0:
+            out[g] = phases(w[g], vp[g], w[g + 1], length, ag[g], jg[g])[0][7]
+    return out
+
+
+@njit(cache=True)
+def arc_lengths_at(times, s, idx, w, vp, ag, jg, t_start):
+    """Arc length at each time (from the first anchor; times ascending within the gaps'
+    total) and the gap each falls in; t_start[g] is when gap g begins."""
+    out = np.empty(times.shape[0])
+    gap = np.empty(times.shape[0], np.int64)
+    m = idx.shape[0]
+    g = 0
+    while g + 1 < m - 1 and t_start[g + 1] <= times[0]:
+        g += 1
+    length = s[idx[g + 1]] - s[idx[g]]
+    tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+    for q in range(times.shape[0]):
+        tq = times[q]
+        if g + 1 < m - 1 and t_start[g + 1] <= tq:
+            while g + 1 < m - 1 and t_start[g + 1] <= tq:
+                g += 1
+            length = s[idx[g + 1]] - s[idx[g]]
+            tt, ss, vv, aa, jj = phases(w[g], vp[g], w[g + 1], max(length, 0.0), ag[g], jg[g])
+        if length <= 0.0:
+            out[q] = s[idx[g + 1]]
+        else:
+            d = state(tt, ss, vv, aa, jj, tq - t_start[g])[0]
+            out[q] = s[idx[g]] + min(max(d, 0.0), length)
+        gap[q] = g
+    return out, gap

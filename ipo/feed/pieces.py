@@ -18,7 +18,10 @@ cubic of the same size. A corner that involves a NURBS gets a cubic sized by the
 rule and checked against the programmed corner (ipo.feed.blends.nurbs_corner); the NURBS is trimmed to
 the part between its blends (ipo.nurbs.subcurve), which its stepper walks. In S-curve mode a
 corner between two lines gets a curvature-continuous quintic within P instead of the arc
-(ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. G61 and P0 corners,
+(ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. Likewise
+a joint next to an arc or a NURBS, tangent or at a corner, gets a quintic that matches the
+curvature of both moves (ipo.feed.blends.g2_joints) where that beats crossing the curvature
+step, the cubic, or a stop. G61 and P0 corners,
 reversals and corners where no blend fits are not blended: the planner crosses them within
 one period at the corner cap (ipo.feed.cap_kernels.geometric_caps).
 """
@@ -32,6 +35,7 @@ import numpy as np
 from ipo.nurbs import kernel as nk
 from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
+from ipo.feed.blends.g2_joints import g2_joint
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
 from ipo.feed.analytic import Geometry, evaluate, frame
 from ipo.feed.arcs import arc_pieces, move_points, trimmed_arcs
@@ -217,15 +221,34 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     d = np.where(curve, r_c * np.tan(half_c), d)
     at_nurbs = ((is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
                 & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
-    nurbs_blends = {}
+    bezier_blends = {}
     for j in np.nonzero(at_nurbs)[0]:
         before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
         after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
         found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
         if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
-            d[j], nurbs_blends[j] = found
+            d[j], bezier_blends[j] = found
+    d_after = d.copy()
+    if g2_limits is not None:  # S-curve mode: joints next to arcs and NURBS curvature-continuous where faster
+        cubic_r = np.where(curve, r_c, 0.0)
+        for j in bezier_blends:
+            cubic_r[j] = d[j] / np.tan(0.5 * theta[j])
+        a_lim, j_lim = g2_limits[0], g2_limits[1]
+        x_own = np.where(is_arc, np.minimum(a_lim * arcs.radius, (j_lim * arcs.radius**2) ** (2.0 / 3.0)), np.inf)
+        x_own = np.minimum(x_own, feed**2)
+        reach_g2 = 0.5 * length
+        for j in np.nonzero(~both & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
+                            & (theta < _REVERSAL_RAD))[0]:
+            found = g2_joint(_side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True),
+                             _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1,
+                                   from_end=False), end[j], float(tol[j]), float(reach_g2[j]),
+                             float(reach_g2[j + 1]), float(cubic_r[j]) if theta[j] > _CURVE_BLEND_MIN_RAD else None,
+                             float(min(x_own[j], x_own[j + 1])), g2_limits)
+            if found is not None:
+                d[j], d_after[j], bezier_blends[j] = found
+                curve[j] = False
     trim_out[:-1] = d
-    trim_in[1:] += d
+    trim_in[1:] += d_after
     # 3. lay out the pieces: each move's own piece, then the blend at its end
     emit = n if final else n - 1
     pc = _empty(2 * emit)  # even slots: each move's own piece; odd slots: the blend at its end
@@ -259,7 +282,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         ctrl = np.stack([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt], axis=1)
         for k, j in enumerate(jc):
             _put_blend(pc, bl[j], ctrl[k], nurbs, add_blend)
-    for j, ctrl in nurbs_blends.items():
+    for j, ctrl in bezier_blends.items():
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for j in np.nonzero(g2[:emit])[0]:
         _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
@@ -319,13 +342,19 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
             p, d1 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 1)[:, 0]
             return p, d1 / np.linalg.norm(d1)
 
+        def kv(x):  # the curvature vector (d2 - (d2.t) t) / |d1|^2
+            _, d1, d2 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 2)[:, 0]
+            t = d1 / np.linalg.norm(d1)
+            return (d2 - np.dot(d2, t) * t) / np.dot(d1, d1)
+
         return Side(at, lambda x, n: nk.curve_points(e.degree, e.knots, e.weights, e.points,
-                                                     np.linspace(u_corner, u_of(x), n)))
+                                                     np.linspace(u_corner, u_of(x), n)), kv)
     if isinstance(e, Arc):
         def arc_at(x):
             sigma = np.array([base + sign * x])
             return evaluate(arcs.geometry, np.array([i]), sigma)[0], frame(arcs.geometry, np.array([i]), sigma)[0][0]
 
-        return Side(arc_at, lambda x, n: evaluate(arcs.geometry, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
+        return Side(arc_at, lambda x, n: evaluate(arcs.geometry, np.full(n, i), base + sign * np.linspace(0.0, x, n)),
+                    lambda x: frame(arcs.geometry, np.array([i]), np.array([base + sign * x]))[1][0])
     return Side(lambda x: (start[i] + unit[i] * (base + sign * x), unit[i]),
-                lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None])
+                lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None], lambda x: np.zeros(3))

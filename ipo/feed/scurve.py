@@ -18,7 +18,7 @@ import numpy as np
 
 from ipo.contracts import LIMIT_ACCEL
 from ipo.errors import SCURVE, IpoError
-from ipo.feed import jerk_plan
+from ipo.feed import jerk_plan, jerk_profile
 from ipo.feed import lookahead as la
 from ipo.feed.jerk_profile import transition_distance
 
@@ -74,7 +74,7 @@ class SegmentLaw:
 
     def __init__(self, seg: Segments, s: np.ndarray, cap: np.ndarray, reason: np.ndarray, period_s: float):
         self.seg, self.s, self.cap, self.reason, self.T = seg, s, cap, reason, period_s
-        dur = jerk_plan.durations(s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg)
+        dur = jerk_profile.durations(s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg)
         self.t_start = np.concatenate([[0.0], np.cumsum(dur)])
         self.duration = float(self.t_start[-1])
         self.last = int(seg.idx[-1])
@@ -82,7 +82,7 @@ class SegmentLaw:
 
     def at(self, times: np.ndarray, s_prev: float):
         seg = self.seg
-        sv, gap = jerk_plan.arc_lengths_at(times, self.s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg, self.t_start)
+        sv, gap = jerk_profile.arc_lengths_at(times, self.s, seg.idx, seg.w, seg.vp, seg.ag, seg.jg, self.t_start)
         return sv, period_limits(sv, s_prev, self.T, self.s, self.cap, self.reason), gap
 
     def cut_after(self, g: int) -> tuple[int, float]:

@@ -1,8 +1,10 @@
 """Corner blends the feed stage inserts under G64 besides the line/arc arcs of ipo.feed.pieces.
 
 - `nurbs_corner`: a blend where a NURBS meets a line, an arc or another NURBS.
-- `curvature_continuous`: quintic Bezier corners of continuous curvature (S-curve mode).
-- `compiled`: numba arc-length tables and points of the Bezier blends.
+- `curvature_continuous`: quintic Bezier corners of continuous curvature between lines (S-curve mode).
+- `g2_joints`: curvature-continuous joints next to arcs and NURBS, tangent or at a corner: both
+  moves trimmed and joined by the quintic matching point, tangent and curvature (S-curve mode).
+- `compiled`: numba arc-length tables, points and frames of the Bezier blends; point-to-polyline distances.
 
 May import: ipo.nurbs, ipr.entities, numpy, numba (not ipo.feed's other modules).
 """

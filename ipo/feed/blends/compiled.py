@@ -83,8 +83,8 @@ def _frame_into(p, u, speed, t, kv, rows):
 
 
 @njit(cache=True)
-def _frame(p, u):
-    """Speed |C'|, unit tangent and curvature vector at u."""
+def bezier_frame(p, u):
+    """Speed |C'|, unit tangent and curvature vector at u, and False where the derivative vanishes."""
     n = u.shape[0]
     speed, t, kv = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
     ok = _frame_into(p, u, speed, t, kv, np.arange(n))
@@ -115,7 +115,7 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
     for i in range(start_per_span + 1):
         u[i] = i * step
     u[start_per_span] = 1.0
-    speed, t, kv, ok = _frame(p, u)
+    speed, t, kv, ok = bezier_frame(p, u)
     if not ok:
         return u, u, speed, t, kv, False
     # 2. refinement
@@ -150,7 +150,7 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
         out[j] = u[m]
         if not _increasing(out):  # rounding made a duplicate: the sorted unique set, all evaluated
             u = np.unique(out)
-            speed, t, kv, ok = _frame(p, u)
+            speed, t, kv, ok = bezier_frame(p, u)
             if not ok:
                 return u, u, speed, t, kv, False
             continue
@@ -166,7 +166,7 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
         u, speed, t, kv = out, speed_n, t_n, kv_n
     # 3. the arc length
     mid = 0.5 * (u[:-1] + u[1:])
-    mid_speed, _, _, ok = _frame(p, mid)
+    mid_speed, _, _, ok = bezier_frame(p, mid)
     if not ok:
         return u, u, speed, t, kv, False
     s = np.empty(u.shape[0])
@@ -219,3 +219,20 @@ def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
             u[i] = min(max(u[i] - (s_u - target[i]) / speed, uk[i]), uk1[i])
     _derivs(p, u, c1, e1, e2)
     return c1
+
+
+@njit(cache=True)
+def polyline_distance(q, poly):
+    """Distance of each point q (M, 3) from the polyline through poly (N, 3)."""
+    out = np.empty(q.shape[0])
+    for m in range(q.shape[0]):
+        best = np.inf
+        for i in range(poly.shape[0] - 1):
+            ab0, ab1, ab2 = poly[i + 1, 0] - poly[i, 0], poly[i + 1, 1] - poly[i, 1], poly[i + 1, 2] - poly[i, 2]
+            aq0, aq1, aq2 = q[m, 0] - poly[i, 0], q[m, 1] - poly[i, 1], q[m, 2] - poly[i, 2]
+            len2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+            f = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / len2, 0.0), 1.0) if len2 > 0 else 0.0
+            d0, d1, d2 = aq0 - f * ab0, aq1 - f * ab1, aq2 - f * ab2
+            best = min(best, np.sqrt(d0 * d0 + d1 * d1 + d2 * d2))
+        out[m] = best
+    return out

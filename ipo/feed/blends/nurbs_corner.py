@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ipo.feed.blends.compiled import polyline_distance
+
 _CHECK_BLEND = 33  # points checked along the cubic (its midpoint among them)
 _CHECK_SIDE = 65  # points of each move's trimmed stretch (a polyline far finer than P)
 _TRIES = 12
@@ -25,10 +27,12 @@ _SLACK = 1e-9  # relative: a deviation of P to float rounding passes
 class Side(NamedTuple):
     """One move next to the corner, by the distance x (mm of arc length) from the corner:
     at(x) -> (point, unit tangent in the direction of travel) and polyline(x, n) -> (n, 3)
-    points of the move from the corner to x (only dense, not evenly spaced)."""
+    points of the move from the corner to x (only dense, not evenly spaced); kv(x) -> its
+    curvature vector (for the G2 joints of ipo.feed.blends.g2_joints)."""
 
     at: Callable[[float], tuple[np.ndarray, np.ndarray]]
     polyline: Callable[[float, int], np.ndarray]
+    kv: Callable[[float], np.ndarray]
 
 
 def arc_cubic(a: np.ndarray, ta: np.ndarray, b: np.ndarray, tb: np.ndarray) -> np.ndarray:
@@ -46,22 +50,12 @@ def _bezier(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
     return v**3 * ctrl[0] + 3 * v * v * uu * ctrl[1] + 3 * v * uu * uu * ctrl[2] + uu**3 * ctrl[3]
 
 
-def _polyline_distance(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of each point q (M, 3) from the polyline through poly (N, 3)."""
-    a, ab = poly[:-1], np.diff(poly, axis=0)
-    ab2 = np.einsum("ij,ij->i", ab, ab)
-    aq = q[:, None, :] - a[None, :, :]
-    f = np.clip(np.divide(np.einsum("mij,ij->mi", aq, ab), ab2, out=np.zeros((len(q), len(a))), where=ab2 > 0),
-                0.0, 1.0)
-    return np.linalg.norm(aq - f[..., None] * ab[None], axis=2).min(axis=1)
-
-
-def deviation(ctrl: np.ndarray, before: Side, after: Side, d: float, corner: np.ndarray) -> float:
-    """The larger of the cubic's largest distance from the two moves' last and first d and
-    its distance from the corner point."""
-    q = _bezier(ctrl, np.linspace(0.0, 1.0, _CHECK_BLEND))
-    from_path = np.minimum(_polyline_distance(q, before.polyline(d, _CHECK_SIDE)),
-                           _polyline_distance(q, after.polyline(d, _CHECK_SIDE)))
+def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after: float, corner: np.ndarray
+              ) -> float:
+    """The larger of the largest distance of a blend's points q from the two moves' last
+    d_before and first d_after and the blend's distance from the corner point."""
+    from_path = np.minimum(polyline_distance(q, before.polyline(d_before, _CHECK_SIDE)),
+                           polyline_distance(q, after.polyline(d_after, _CHECK_SIDE)))
     return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
 
 
@@ -77,7 +71,7 @@ def corner_blend(before: Side, after: Side, corner: np.ndarray, theta: float, to
         if not d > 0:
             return None
         ctrl = arc_cubic(*before.at(d), *after.at(d))
-        worst = deviation(ctrl, before, after, d, corner) / tol_mm
+        worst = deviation(_bezier(ctrl, np.linspace(0.0, 1.0, _CHECK_BLEND)), before, after, d, d, corner) / tol_mm
         if worst <= 1.0 + _SLACK:
             return d, ctrl
         d *= min(0.99, 0.995 / worst)  # the deviation grows about linearly with d

@@ -12,7 +12,7 @@ from ruckig import ControlInterface, InputParameter, Ruckig, Trajectory
 
 from ipo.config import default_config
 from ipo.contracts import PeriodBatch
-from ipo.feed.jerk_profile import peak_speed, phases, state, time_at, transition_distance, transition_time
+from ipo.feed.jerk_profile import peak_speed, phases, reach, state, time_at, transition_distance, transition_time
 from ipo.feed.planner import ACCEL_USE, VELOCITY_USE, FeedPlanner, plan_periods
 from ipr.entities import Arc, Line, Nurbs, PathControl
 from tests.ipo.feed.test_nurbs_blend import distance_to_polyline
@@ -47,6 +47,23 @@ def test_a_speed_change_is_ruckigs_fastest():
         traj = ruckig_1d(0.0, va, vb, 1e3, a, j, velocity=True)
         assert transition_time(abs(vb - va), a, j) == pytest.approx(traj.duration, rel=1e-9)
         assert transition_distance(va, vb, a, j) == pytest.approx(traj.at_time(traj.duration)[0][0], rel=1e-9)
+
+
+def test_the_speed_reached_within_a_distance_is_where_ruckigs_fastest_change_covers_it():
+    """reach's closed form (both cases: with and without a phase at full acceleration, from
+    standstill and from speed) against the distance of ruckig's fastest speed change."""
+    rng = np.random.default_rng(5)
+    for n in range(200):
+        v = 0.0 if n % 4 == 0 else rng.uniform(0, 100)
+        a, j = rng.uniform(100, 2000), rng.uniform(1e4, 2e5)
+        d = 10 ** rng.uniform(-4, 2)
+        w = reach(v, d, a, j)
+        # the largest such speed, up to the last bits of w (w - v may be 1e-7 of w)
+        w_up = w + max(4 * np.spacing(w), 1e-9 * (w - v))
+        covered = [ruckig_1d(0.0, v, x, 1e4, a, j, velocity=True) for x in (w, w_up)]
+        covered = [tr.at_time(tr.duration)[0][0] for tr in covered]
+        assert covered[0] <= d * (1 + 1e-9) and covered[1] >= d * (1 - 1e-9)
+        assert transition_distance(v, w, a, j) <= d  # never a speed the distance cannot hold
 
 
 def test_a_segment_between_anchors_is_ruckigs_fastest_and_ends_where_it_should():

@@ -283,11 +283,13 @@ def standstills(pos, feed, where, radius_mm):
 
 
 def test_scurve_mode_stops_once_at_a_corner_too_tight_to_blend():
-    """S-curve mode: the blends of P = 0.01 at 90 and 30 degrees (R = 0.024 and 0.28 mm) lie
+    """S-curve mode: the blends of P = 0.003 at 90 and 30 degrees (R = 0.0072 and 0.085 mm) lie
     below limits.min_blend_radius_mm (about 0.49 mm for these limits: the filter's lowest
     smooth speed sqrt(x_low) = A/2 * 20 ms / 2 = 4.9 mm/s against v^2 <= J/2 T R at the
-    blend's ends), so each corner is one stop on the corner point, not two at the blend's ends."""
-    pos, feed = run_scurve(program(G64P))
+    blend's ends), and the curvature-continuous joints within P are so short that their
+    curvature rate caps them below a stop's gain (ipo.feed.blends.g2_joints), so each corner is
+    one stop on the corner point, not two at the blend's ends."""
+    pos, feed = run_scurve(program(PathControl(blend_tol_mm=0.003)))
     for corner in (PTS[0], PTS[-1]):
         assert np.linalg.norm(pos - corner, axis=1).min() <= 1e-9
         assert standstills(pos, feed, corner, 0.5) == 1
