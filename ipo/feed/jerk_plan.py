@@ -154,25 +154,30 @@ def _step(kv, k, other, i):
 
 
 @njit(cache=True)
-def _rate(s, kv, k, i):
-    """|dkv_i/ds| at sample k from the neighbouring samples along the path (the larger side;
-    a piece joint, two samples at one arc length, is a step, not a rate)."""
-    r = 0.0
-    if k > 0 and s[k] - s[k - 1] > _JOINT_MM:
-        r = abs(kv[k, i] - kv[k - 1, i]) / (s[k] - s[k - 1])
-    if k + 1 < s.shape[0] and s[k + 1] - s[k] > _JOINT_MM:
-        r = max(r, abs(kv[k + 1, i] - kv[k, i]) / (s[k + 1] - s[k]))
-    return r
+def _rates(s, kv):
+    """|dkv_i/ds| at each sample from the neighbouring samples along the path (the larger side;
+    a piece joint, two samples at one arc length, is a step, not a rate): once per plan, the
+    checks read it at every sample of every round."""
+    n = s.shape[0]
+    rate = np.zeros((n, 3))
+    for k in range(n - 1):
+        ds = s[k + 1] - s[k]
+        if ds > _JOINT_MM:
+            for i in range(3):
+                r = abs(kv[k + 1, i] - kv[k, i]) / ds
+                rate[k, i] = max(rate[k, i], r)
+                rate[k + 1, i] = r
+    return rate
 
 
 @njit(cache=True)
-def _axes_over(geo, k, motion, lim, curved, step):
-    """Which limits some axis is over with the geometry of sample k and the state motion = (v,
-    acc, jk) (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0 if none; step: per axis,
-    STEP_JERK_SHARE |dkv_i| / T where sample k is a piece joint at which the curvature steps
-    by dkv (0 elsewhere). A jerk over its limit mostly through the coupling 3 kv_i v a is the
+def _axes_over(geo, rate, k, motion, lim, curved, step):
+    """Which limits some axis is over with the geometry of sample k (rate: _rates) and the
+    state motion = (v, acc, jk) (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0
+    if none; step: per axis, STEP_JERK_SHARE |dkv_i| / T where sample k is a piece joint at
+    which the curvature steps by dkv (0 elsewhere). A jerk over its limit mostly through the coupling 3 kv_i v a is the
     acceleration's to lower too."""
-    s, t, kv = geo
+    t, kv = geo.t, geo.kv
     v, acc, jk = motion
     over = 0
     for i in range(3):
@@ -182,7 +187,7 @@ def _axes_over(geo, k, motion, lim, curved, step):
         # STEP_JERK_SHARE v^2 |dkv_i| / T, which the periods around the joint see together
         # with the path's jerk on both sides (the caps hold it within half of J_i; at the
         # speed the segment has there it is often far less)
-        budget = lim.j_axis[i] - step[i] * v * v - (_rate(s, kv, k, i) * v**3 if curved else 0.0)
+        budget = lim.j_axis[i] - step[i] * v * v - (rate[k, i] * v**3 if curved else 0.0)
         extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
         if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
             over |= _JERK_OVER | (_ACC_OVER if extra > 0.5 * budget else 0)
@@ -212,7 +217,7 @@ def _above_x(s, x, lo, hi, seg):
 
 
 @njit(cache=True)
-def _check(geo, x, lo, hi, seg, lim, curved):
+def _check(geo, rate, x, lo, hi, seg, lim, curved):
     """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
     axes are checked at every sample and, with the geometry of the samples either side, where
     each phase starts (the acceleration peaks between samples)."""
@@ -238,7 +243,7 @@ def _check(geo, x, lo, hi, seg, lim, curved):
             other = k + 1
         for i in range(3):
             step[i] = STEP_JERK_SHARE * _step(kv, k, other, i) / lim.period_s
-        axis_over |= _axes_over(geo, k, (v, acc, jk), lim, curved, step)
+        axis_over |= _axes_over(geo, rate, k, (v, acc, jk), lim, curved, step)
     k = lo
     for q in range(1, 7):
         d = ss[q]
@@ -247,8 +252,8 @@ def _check(geo, x, lo, hi, seg, lim, curved):
         while k + 1 < hi and s[k + 1] - s[lo] < d:
             k += 1
         jq = max(abs(jj[q - 1]), abs(jj[q]))  # the axes see |jerk|: the larger one either side covers both
-        axis_over |= _axes_over(geo, k, (vv[q], aa[q], jq), lim, curved, no_step)
-        axis_over |= _axes_over(geo, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
+        axis_over |= _axes_over(geo, rate, k, (vv[q], aa[q], jq), lim, curved, no_step)
+        axis_over |= _axes_over(geo, rate, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
     return worst, axis_over
 
 
@@ -288,6 +293,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
             if kv[k, i] != 0.0:
                 x[k] = min(x[k], (1.0 - _CURVE_ROOM) * a_axis[i] / abs(kv[k, i]))
     curved = _curved_intervals(s, t, kv, straight_min_mm)
+    rate = _rates(s, kv)
     anchor = _anchors(s, x, curved)
     scale_a = np.ones(max(n - 1, 1))
     scale_j = np.ones(max(n - 1, 1))
@@ -346,7 +352,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
                 continue
             top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), base)
             p = peak_speed(w[g], w[g + 1], length, top, ag[g], jg[g])
-            worst, over = _check(geo, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
+            worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
             if worst >= 0 and p > base:
                 low, high = base, p
                 for _b in range(24):
@@ -357,7 +363,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
                         high = mid
                 if low >= (1.0 - _PEAK_GIVE) * p:  # a slightly lower peak clears it
                     p = low
-                    worst, over = _check(geo, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
+                    worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
             vp[g] = p
             if (worst >= 0 or over != 0) and rnd >= _ROUNDS // 2:
                 anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample

@@ -23,7 +23,7 @@ import numpy as np
 from ipo.errors import FIT_SETTINGS, IpoError
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
 from ipo.fit.distance import written_deviation_mm
-from ipo.fit.groups import FitOptions, Span, plan_chain
+from ipo.fit.groups import FitOptions, Span, plan_chain, sharp_of
 from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.rational import RationalFit
 from ipr import Setup, parse_line
@@ -58,6 +58,8 @@ class Frame:
 class ConvertReport:
     chains: int = 0  # chains of two moves or more (G1/G2/G3 without a break)
     sharp_corners: int = 0  # vertices kept sharp inside groups (a knot of multiplicity = degree)
+    double_knots: int = 0  # the other knots of multiplicity 2 (conic spans: the weights restart, the curve is tangent)
+    sharp_vertices: int = 0  # the chains' vertices that must stay sharp (ipo.fit.chains.sharp_vertices)
     feeds_merged: int = 0  # feed changes inside groups (all beyond the machine's reach)
     groups: int = 0
     moves_replaced: int = 0
@@ -237,13 +239,12 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
                  accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0, reach_mm_s: float | None = None,
                  dialect: str = "g06.2") -> tuple[str, ConvertReport]:
-    """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes
-    for the fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the
-    sharp-corner test of ipo.fit.chains; reach_mm_s: the fastest path speed its axes reach together
-    (feeds at or above it are one feed, ipo.fit.chains.same_feed; default that of max_feed_mm_s on
-    three axes; 0: never merge feeds); dialect: "g06.2" (Fanuc, 3-D, knots written, groups
-    through corners) or "g5.2" (LinuxCNC, XY plane at one Z, uniform knots, a group per piece);
-    degree: None for the dialect's own (2, conic spans, for G06.2; 3 for G5.2))."""
+    """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes for the
+    fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the sharp-corner test of
+    ipo.fit.chains; reach_mm_s: the fastest path speed its axes reach together (feeds at or above it are one
+    feed, ipo.fit.chains.same_feed; default that of max_feed_mm_s on three axes; 0: never merge feeds);
+    dialect: "g06.2" (Fanuc, 3-D, knots written, groups through corners) or "g5.2" (LinuxCNC, XY plane at
+    one Z, uniform knots, a group per piece); degree: None for the dialect's own (G06.2: 2, conic spans; G5.2: 3))."""
     if dialect not in DIALECTS:
         raise IpoError(FIT_SETTINGS, f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
@@ -276,6 +277,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     options = [replace(_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s),
                        joins=dialect == "g06.2", restore_blocks=_restore_cost(lines, c.moves[-1].line))
                for c in chains]
+    report.sharp_vertices = sum(len(sharp_of(c, o)) for c, o in zip(chains, options))
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
     for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
         frame = frames[chain.moves[0].line]
@@ -375,9 +377,8 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
             report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
             report.groups += 1
             report.moves_replaced += len(moves)
-            p = span.fit.degree
-            if p > 1:
-                report.sharp_corners += (int(np.sum(np.diff(span.fit.knots) == 0)) - 2 * p) // (p - 1)
+            report.sharp_corners += span.corners()
+            report.double_knots += span.double_knots
     if not any_group:
         return None, False
     return out, after_group

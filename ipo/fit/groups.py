@@ -50,6 +50,17 @@ class Span:
     fit: RationalFit | None = None
     data: np.ndarray | None = None  # the path the fit was checked against (polyline, densified)
     deviation_mm: float = 0.0
+    double_knots: int = 0  # knots of multiplicity 2 where the curve stays tangent (ipo.fit.weights), not corners
+
+    def corners(self) -> int:
+        """The fit's corners: its inner knots of multiplicity = degree, less the double knots."""
+        p = self.fit.degree
+        return (int(np.sum(np.diff(self.fit.knots) == 0)) - 2 * p) // (p - 1) - self.double_knots if p > 1 else 0
+
+
+def sharp_of(chain: Chain, opt: FitOptions) -> np.ndarray:
+    """The chain's vertices that stay sharp under opt (ipo.fit.chains.sharp_vertices)."""
+    return sharp_vertices(chain, opt.tol_mm, opt.accel_mm_s2, opt.max_feed_mm_s, opt.corner_deg)
 
 
 def group_overhead(degree: int) -> int:
@@ -157,7 +168,7 @@ def _in_group(piece, degree: int) -> float:
 def plan_chain(chain: Chain, opt: FitOptions) -> list[Span]:
     """The chain as consecutive spans, fitted or kept, with the fewest blocks (see the module doc)."""
     p = opt.degree
-    sharp = sharp_vertices(chain, opt.tol_mm, opt.accel_mm_s2, opt.max_feed_mm_s, opt.corner_deg)
+    sharp = sharp_of(chain, opt)
     move_at = {int(e): i + 1 for i, e in enumerate(chain.ends)}  # point index -> moves up to it
     cuts = [0] + [move_at[int(v)] for v in sharp] + [len(chain.moves)]
     pieces = []

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ipo.fit.chains import Chain, sharp_vertices
+from ipo.fit.chains import Chain
 from ipo.fit.compiled import foot_params
 from ipo.fit.conic_plan import DEGREE, junctions, plan_kernel
-from ipo.fit.groups import Span
+from ipo.fit.groups import Span, sharp_of
 from ipo.fit.rational import RationalFit, SpanPolynomials
 from ipo.fit.weights import X, spline
 
@@ -53,7 +53,7 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     (ipo.fit.conic_plan); opt: ipo.fit.groups.FitOptions (tol_mm, the machine for sharp corners)."""
     n = len(chain.points) - 1
     sharp = np.zeros(n + 1, dtype=bool)
-    sharp[sharp_vertices(chain, opt.tol_mm, opt.accel_mm_s2, opt.max_feed_mm_s, opt.corner_deg)] = True
+    sharp[sharp_of(chain, opt)] = True
     cand = junctions(chain.points, chain.tan_in, chain.tan_out, chain.on_arc, sharp)
     is_end = np.zeros(n + 1, dtype=bool)
     is_end[0] = True
@@ -78,7 +78,8 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
         points, weights, knots = spline(items, DEGREE)
         fit = RationalFit(DEGREE, knots, weights, points, np.empty(0), np.empty(0), True)
         data = chain.points[a:v + 1]
-        spans.append(Span(move_at[a], move_at[v], fit_params(fit, data, a, at), data))
+        doubles = sum(1 for item in items if item[0] == "span" and item[4])
+        spans.append(Span(move_at[a], move_at[v], fit_params(fit, data, a, at), data, double_knots=doubles))
         v = a
     return _merge_kept(spans[::-1])
 

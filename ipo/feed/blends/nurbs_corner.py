@@ -50,12 +50,13 @@ def _bezier(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
     return v**3 * ctrl[0] + 3 * v * v * uu * ctrl[1] + 3 * v * uu * uu * ctrl[2] + uu**3 * ctrl[3]
 
 
-def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after: float, corner: np.ndarray
-              ) -> float:
+def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after: float, corner: np.ndarray,
+              side_points: int = _CHECK_SIDE) -> float:
     """The larger of the largest distance of a blend's points q from the two moves' last
-    d_before and first d_after and the blend's distance from the corner point."""
-    from_path = np.minimum(polyline_distance(q, before.polyline(d_before, _CHECK_SIDE)),
-                           polyline_distance(q, after.polyline(d_after, _CHECK_SIDE)))
+    d_before and first d_after (polylines of side_points points each) and the blend's
+    distance from the corner point."""
+    from_path = np.minimum(polyline_distance(q, before.polyline(d_before, side_points)),
+                           polyline_distance(q, after.polyline(d_after, side_points)))
     return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
 
 

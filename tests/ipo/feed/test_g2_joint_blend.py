@@ -16,7 +16,8 @@ from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.sampling import nurbs_table
 from ipr.entities import Arc, Line, Nurbs, PathControl
-from tests.ipo.feed.test_jerk_profile import CFG, assert_within_limits, programmed_points, random_arc_chain, run
+from tests.ipo.feed.test_jerk_profile import (CFG, assert_within_limits, programmed_points, random_arc_chain,
+                                           random_nurbs_path, run)
 from tests.ipo.feed.test_nurbs_blend import distance_to_polyline
 
 CORNERS = FeedPlanner(CFG).corners
@@ -38,7 +39,7 @@ def built(ents):
     return b.pieces, [e for e in quintics if e.degree == 5]
 
 
-def tangent_chain(rng, n=10, tol=0.05):
+def tangent_chain(rng, n=10, tol=0.05, radius_mm=(2.0, 10.0)):
     """XY lines and arcs, each tangent to the move before it and all rising at one slope (the
     arcs are helices): line-arc, arc-line and arc-arc joints (S-bends and changes of radius),
     where only the curvature steps."""
@@ -48,7 +49,7 @@ def tangent_chain(rng, n=10, tol=0.05):
     for i in range(n):
         feed = float(rng.uniform(40, 100))
         if last_arc and rng.random() < 0.5 or not last_arc and i > 0 or i == 0 and rng.random() < 0.5:
-            r, sweep = rng.uniform(2, 10), rng.uniform(0.5, 2.0) * rng.choice([-1, 1])
+            r, sweep = rng.uniform(*radius_mm), rng.uniform(0.5, 2.0) * rng.choice([-1, 1])
             normal = np.array([-np.sin(phi), np.cos(phi), 0.0]) * np.sign(sweep)
             centre = pos + r * normal
             ang0 = np.arctan2(pos[1] - centre[1], pos[0] - centre[0])
@@ -130,16 +131,24 @@ def test_tangent_line_arc_joints_are_g2_within_p_and_faster(monkeypatch):
     assert len(pos) < 0.9 * len(without_joints(monkeypatch, ents))
 
 
-@pytest.mark.parametrize("kind,seed", [("tangent", s) for s in range(3)] + [("corners", s) for s in range(3)])
-def test_random_joints_next_to_arcs_within_the_limits_and_p(kind, seed):
-    """Tangent chains (curvature steps only) and arc chains with 3-D corners (helices, arc-arc
-    and line-arc corners at random angles)."""
+def wide_tangent_chain(rng):
+    """Arcs of R 20 to 60 mm under P = 0.005: joints many millimetres long against a tight P."""
+    return tangent_chain(rng, tol=0.005, radius_mm=(20.0, 60.0))
+
+
+@pytest.mark.parametrize("kind,seed", [("tangent", s) for s in range(3)] + [("wide", s) for s in range(2)]
+                         + [("corners", s) for s in range(3)] + [("nurbs", s) for s in range(2)])
+def test_random_joints_next_to_arcs_and_nurbs_within_the_limits_and_p(kind, seed):
+    """Tangent chains (curvature steps only), arc chains with 3-D corners (helices, arc-arc
+    and line-arc corners at random angles) and rational NURBS meeting lines at 3-D corners
+    (every joint there is next to a NURBS)."""
     rng = np.random.default_rng(200 + seed)
-    ents = tangent_chain(rng) if kind == "tangent" else random_arc_chain(rng)
+    ents = {"tangent": tangent_chain, "wide": wide_tangent_chain, "corners": random_arc_chain,
+            "nurbs": random_nurbs_path}[kind](rng)
     assert built(ents)[1], "no joint took the quintic"
     pos = run(ents)
     assert_within_limits(pos)
-    assert_within_p(pos, ents, 0.05)
+    assert_within_p(pos, ents, ents[0].path.blend_tol_mm)
     np.testing.assert_allclose(pos[-1], ents[-1].end, atol=1e-6)
 
 

@@ -164,6 +164,12 @@ def test_raster_step_overs_stay_corners():
     slack = rounding_bound_mm(coordinate_digits(0.01, 1.0), 1.0) + 1e-9  # a control point as written
     for vertex in corners[:-1]:
         assert np.min(np.linalg.norm(nb.points - vertex, axis=1)) <= slack
+    # the report tells the six step-over corners (the passes are smooth: no other corner) from the knots
+    # where only the weights restart (the curve stays tangent there); together they are the written
+    # group's inner knots of multiplicity 2
+    knots, counts = np.unique(nb.knots[nb.degree + 1:-nb.degree - 1], return_counts=True)
+    assert rep.sharp_vertices == rep.sharp_corners == 6
+    assert rep.sharp_corners + rep.double_knots == int(np.sum(counts == 2))
 
 
 def test_an_arc_inside_a_smooth_path_joins_the_group():
