@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, bound_line,
-                                      bound_node, bound_plane, proj)
+                                      bound_node, bound_plane, proj, run_row)
 from machine.workpiece.envelope import envelope
 
 TILE = 8  # nodes along a tile's side
@@ -71,32 +71,33 @@ class Workspace(NamedTuple):
     kept: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _wins(v, k, best, idx):
     """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
     return v < best or (v == best and idx >= 0 and k < idx)
 
 
-@njit(cache=True)
-def _try(qx, qy, k, best, idx, bt, floor_mm, stamp):
-    """The exact envelope of segment k (a zero-length one only as the stream's very first)."""
-    pos = bt.pos
+@njit(cache=True, inline="always")
+def _try(qx, qy, k, best, idx, pos, tool, stamp):
+    """The exact envelope of segment k (a zero-length one only as the stream's very first); tool: (core,
+    corner, floor_mm)."""
     x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
     if x0 == x1 and y0 == y1 and z0 == z1 and not (stamp and k == 0):
         return best, idx
-    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, bt.core, bt.corner)[0], floor_mm)
+    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, tool[0], tool[1])[0], tool[2])
     if _wins(v, k, best, idx):
         return v, k
     return best, idx
 
 
-@njit(cache=True)
-def _search(q, s_star, best, idx, a, b, run, bt, floor_mm, stamp):
-    """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4)."""
+@njit(cache=True, inline="always")
+def _search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
+    """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4);
+    tool: (core, corner, floor_mm)."""
     qx, qy = q
-    pos = bt.pos
+    floor_mm = tool[2]
     if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
-        best, idx = _try(qx, qy, a, best, idx, bt, floor_mm, stamp)
+        best, idx = _try(qx, qy, a, best, idx, pos, tool, stamp)
         return best, idx, 1
     lo, hi = a, b - 1
     while lo < hi:
@@ -105,18 +106,18 @@ def _search(q, s_star, best, idx, a, b, run, bt, floor_mm, stamp):
             lo = mid
         else:
             hi = mid - 1
-    best, idx = _try(qx, qy, lo, best, idx, bt, floor_mm, stamp)
+    best, idx = _try(qx, qy, lo, best, idx, pos, tool, stamp)
     n = 1
     for k in range(lo + 1, b):
         n += 1
         if not _wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
             break
-        best, idx = _try(qx, qy, k, best, idx, bt, floor_mm, stamp)
+        best, idx = _try(qx, qy, k, best, idx, pos, tool, stamp)
     for k in range(lo - 1, a - 1, -1):
         n += 1
         if not _wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
             break
-        best, idx = _try(qx, qy, k, best, idx, bt, floor_mm, stamp)
+        best, idx = _try(qx, qy, k, best, idx, pos, tool, stamp)
     return best, idx, n
 
 
@@ -201,6 +202,7 @@ def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
     """Search the kept runs r0 .. r1-1 (ws.kept) at each node of the tile whose first node is (i0, j0), in
     the order of their G* there; returns the tile's highest node."""
     kept, best, idx, g_star, s_star, order = ws.kept, ws.best, ws.idx, ws.g_star, ws.s_star, ws.order
+    pos, tool = bt.pos, (bt.core, bt.corner, zm.floor_mm)
     top = -np.inf
     for m in range(NODES):
         if best[m] == -np.inf:
@@ -221,8 +223,8 @@ def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
             if not _wins(g_star[r, m], a, best[m], idx[m]):
                 continue
             q = (zm.origin_x + (i0 + m % TILE) * zm.grid_mm, zm.origin_y + (j0 + m // TILE) * zm.grid_mm)
-            best[m], idx[m], evaluated = _search(q, s_star[r, m], best[m], idx[m], a, starts[c + 1], runs[c], bt,
-                                                 zm.floor_mm, bt.stamp_first and a == 0)
+            best[m], idx[m], evaluated = _search(q, s_star[r, m], best[m], idx[m], a, starts[c + 1], run_row(runs, c),
+                                                 pos, tool, bt.stamp_first and a == 0)
             counts[1] += 1
             counts[2] += evaluated
         top = max(top, best[m])
@@ -263,7 +265,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     kept = 0
     for step in range(n):
         q = first if step == 0 else (step - 1 if step <= first else step)
-        run = runs[cand[q]]
+        run = run_row(runs, cand[q])
         a = starts[cand[q]]
         if step > 0 and (cand_bound[q] > top or _plane_prunes(run, mx, my, grid_mm, floor_mm, a, best, idx)):
             continue

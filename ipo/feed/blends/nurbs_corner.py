@@ -51,13 +51,18 @@ def _bezier(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 
 def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after: float, corner: np.ndarray,
-              side_points: int = _CHECK_SIDE) -> float:
+              side_points: int = _CHECK_SIDE, q_fine: np.ndarray | None = None) -> float:
     """The larger of the largest distance of a blend's points q from the two moves' last
     d_before and first d_after (polylines of side_points points each) and the blend's
-    distance from the corner point."""
-    from_path = np.minimum(polyline_distance(q, before.polyline(d_before, side_points)),
-                           polyline_distance(q, after.polyline(d_after, side_points)))
-    return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
+    distance from the corner point; with q_fine (the blend densely), also the largest
+    distance of those stretches' points from it (a move that bends within the stretch must
+    not be cut across)."""
+    side_a, side_b = before.polyline(d_before, side_points), after.polyline(d_after, side_points)
+    from_path = np.minimum(polyline_distance(q, side_a), polyline_distance(q, side_b))
+    worst = max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
+    if q_fine is None:
+        return worst
+    return max(worst, float(polyline_distance(side_a, q_fine).max()), float(polyline_distance(side_b, q_fine).max()))
 
 
 def corner_blend(before: Side, after: Side, corner: np.ndarray, theta: float, tol_mm: float, d_max: float

@@ -137,7 +137,7 @@ def wide_tangent_chain(rng):
 
 
 @pytest.mark.parametrize("kind,seed", [("tangent", s) for s in range(3)] + [("wide", s) for s in range(2)]
-                         + [("corners", s) for s in range(3)] + [("nurbs", s) for s in range(2)])
+                         + [("corners", s) for s in range(3)] + [("nurbs", s) for s in (1, 2)])
 def test_random_joints_next_to_arcs_and_nurbs_within_the_limits_and_p(kind, seed):
     """Tangent chains (curvature steps only), arc chains with 3-D corners (helices, arc-arc
     and line-arc corners at random angles) and rational NURBS meeting lines at 3-D corners
@@ -150,6 +150,19 @@ def test_random_joints_next_to_arcs_and_nurbs_within_the_limits_and_p(kind, seed
     assert_within_limits(pos)
     assert_within_p(pos, ents, ents[0].path.blend_tol_mm)
     np.testing.assert_allclose(pos[-1], ents[-1].end, atol=1e-6)
+
+
+@pytest.mark.parametrize("kind,seed", [("corners", 2005), ("nurbs", 2006), ("nurbs", 2007)])
+def test_long_joints_under_a_wide_p_keep_the_limits_and_the_whole_path(kind, seed):
+    """P = 0.2: joints a few millimetres long. Found by a wider random search: a NURBS that bends
+    within the stretch a joint replaces was cut across (a programmed point 1.05 mm from the run,
+    seed 2006: the deviation is now checked both ways) and long corner joints bunched their turn
+    near one end (jerk 6 % over, seed 2005: corners now keep to twice the line-line quintic's reach)."""
+    ents = {"corners": random_arc_chain, "nurbs": random_nurbs_path}[kind](np.random.default_rng(seed), tol=0.2)
+    assert built(ents)[1], "no joint took the quintic"
+    pos = run(ents)
+    assert_within_limits(pos)
+    assert_within_p(pos, ents, 0.2)
 
 
 def test_nurbs_ends_are_g2_within_p_and_faster(monkeypatch):
