@@ -17,7 +17,9 @@ KINDS = {"Rapid": "rapid", "Line": "line", "Arc": "arc", "Nurbs": "nurbs", "Dwel
 
 
 def entity_json(entity, position) -> dict:
-    """One entity as issue 2 item 6 describes it; `position` stands in for a dwell's place."""
+    """One entity as `--json` prints it: line, kind, start and end (mm, machine coordinates),
+    feed_mm_min (null for rapids and dwells); an arc adds center, plane and ccw, a NURBS degree,
+    knots, weights and points. `position` stands in for a dwell's start and end."""
     kind = KINDS[type(entity).__name__]
     feed = getattr(entity, "feed_mm_s", None)
     start = list(getattr(entity, "start", position))

@@ -70,12 +70,13 @@ def tooth_envelope(qx, qy, x0, y0, z0, x1, y1, z1, core, corner, theta0, dtheta,
 
 
 @njit(cache=True)
-def sweep_teeth(z, line, tile_max, origin_x, origin_y, grid_mm, floor_mm, pos, lines, core, corner, stamp_first,
-                counts, spindle_rad, teeth):
-    """Lower z (ny, nx) by the edges along the segments pos[k] -> pos[k+1] (work mm) at the spindle angles
-    spindle_rad[k]; line[j, i] takes lines[k] of the segment that last lowered node (i, j). Segments of
-    zero length are skipped, but for the first one when stamp_first. counts (updated): tiles looked at,
-    tiles searched, envelopes evaluated, nodes lowered."""
+def sweep_teeth(zmap, batch, counts, spindle_rad, teeth):
+    """Lower zmap.z (ny, nx) by the edges along batch's segments pos[k] -> pos[k+1] (work mm) at the
+    spindle angles spindle_rad[k]; zmap.line[j, i] takes lines[k] of the segment that last lowered node
+    (i, j). Segments of zero length are skipped, but for the first one when stamp_first. counts
+    (updated): tiles looked at, tiles searched, envelopes evaluated, nodes lowered."""
+    z, line, tile_max, origin_x, origin_y, grid_mm, floor_mm = zmap
+    pos, lines, core, corner, stamp_first = batch
     ny, nx = z.shape
     radius = core + corner
     half_diag = (TILE - 1) * grid_mm / math.sqrt(2.0)

@@ -170,8 +170,8 @@ class Workpiece:
         path = np.concatenate((self._last, pos))
         angles = np.concatenate((self._spindle, spindle))
         c = self.cutter
-        sweep_teeth(self.z, self.line, self._tile_max, *self._geo(), path, lines, c.core_mm, c.corner_mm,
-                    not self._stamped, self.counts, angles, c.flutes)
+        sweep_teeth(self._zmap(), Batch(path, lines, float(c.core_mm), float(c.corner_mm), not self._stamped),
+                    self.counts, angles, int(c.flutes))
         self._stamped = True
         self._last, self._spindle = path[-1:].copy(), angles[-1:].copy()
 
@@ -197,12 +197,11 @@ class Workpiece:
 
     def warm_up(self) -> None:
         """Load the compiled kernels now, outside the timed removal."""
-        cut(ZMap(np.zeros((1, 1), np.float32), np.zeros((1, 1), np.int32), np.zeros((1, 1)), 0.0, 0.0, 1.0, 0.0),
-            Batch(np.zeros((2, 3)), np.zeros(1, np.int32), 0.0, 1.0, False), np.zeros(COUNTS, np.int64))
+        zmap = ZMap(np.zeros((1, 1), np.float32), np.zeros((1, 1), np.int32), np.zeros((1, 1)), 0.0, 0.0, 1.0, 0.0)
+        batch = Batch(np.zeros((2, 3)), np.zeros(1, np.int32), 0.0, 1.0, False)
+        cut(zmap, batch, np.zeros(COUNTS, np.int64))
         if self.teeth:
-            sweep_teeth(np.zeros((1, 1), np.float32), np.zeros((1, 1), np.int32), np.zeros((1, 1)), 0.0, 0.0, 1.0,
-                        0.0, np.zeros((2, 3)), np.zeros(1, np.int32), 0.0, 1.0, False, np.zeros(COUNTS, np.int64),
-                        np.zeros(2), 2)
+            sweep_teeth(zmap, batch, np.zeros(COUNTS, np.int64), np.zeros(2), 2)
 
     def surface(self) -> Surface:
         self._finishing = True
