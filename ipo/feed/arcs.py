@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ipo.feed.analytic import frame_into, point_into
+from ipo.feed.analytic import frame_into
 
 
 @njit(cache=True)
@@ -95,22 +95,3 @@ def trimmed_arcs(src, src_length, dst, dst_length, src_rows, dst_rows, trim_in, 
         dst.dr[j] = src.dr[i]
         dst.omega[j] = src.omega[i]
         dst_length[j] = max(src_length[i] - trim_in[k] - trim_out[k], 0.0)
-
-
-@njit(cache=True)
-def move_points(g, start, unit, is_arc, rows, sigma):
-    """Points and unit tangents (N, 3) of moves rows at arc lengths sigma from their starts:
-    an arc by its piece in g, a line along start + unit sigma."""
-    p = np.empty((rows.shape[0], 3))
-    t = np.empty((rows.shape[0], 3))
-    kv = np.empty((rows.shape[0], 3))
-    for k in range(rows.shape[0]):
-        i = rows[k]
-        if is_arc[i]:
-            point_into(g, i, sigma[k], p, k)
-            frame_into(g, i, sigma[k], t, kv, k)
-        else:
-            for q in range(3):
-                p[k, q] = start[i, q] + unit[i, q] * sigma[k]
-                t[k, q] = unit[i, q]
-    return p, t

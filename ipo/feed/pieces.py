@@ -38,7 +38,7 @@ from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_point
 from ipo.feed.blends.g2_joints import g2_joint
 from ipo.feed.blends.nurbs_corner import Side, corner_blend
 from ipo.feed.analytic import Geometry, evaluate, frame
-from ipo.feed.arcs import ArcSpecs, arc_pieces, move_points, trimmed_arcs
+from ipo.feed.arcs import ArcSpecs, arc_pieces, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
@@ -209,20 +209,15 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     blend &= g2 | (radius >= min_blend_radius_mm)
     radius = np.where(blend, radius, 0.0)
     d = np.where(g2, d_g2, radius * np.tan(half))
-    # a corner that involves an arc gets a cubic blend from the point d before it to the
-    # point d after it, tangent to both moves, with the handles of a circular arc of
-    # radius d / tan(theta / 2): sized like the circular blend between lines
+    # a corner next to an arc or a NURBS gets a cubic blend from the point d before it to the
+    # point d after it, tangent to both moves, with the handles of a circular arc: sized like the
+    # circular blend between lines, then checked against the moves (which bend within d) and
+    # shrunk until within P (ipo.feed.blends.nurbs_corner)
     movable = line_like | is_arc
-    curve = (movable[:-1] & movable[1:] & ~both & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
-             & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
-    half_c = np.where(curve, 0.5 * theta, 0.25)
-    r_c = np.minimum(tol[:-1] / (1.0 / np.cos(half_c) - 1.0), avail / np.tan(half_c))
-    curve &= r_c >= min_blend_radius_mm
-    d = np.where(curve, r_c * np.tan(half_c), d)
-    at_nurbs = ((is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0) & (length[:-1] > 0) & (length[1:] > 0)
-                & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
+    at_curve = (((movable[:-1] & movable[1:] & ~both) | is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0)
+                & (length[:-1] > 0) & (length[1:] > 0) & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
     bezier_blends = {}
-    for j in np.nonzero(at_nurbs)[0]:
+    for j in np.nonzero(at_curve)[0]:
         before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
         after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
         found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
@@ -230,7 +225,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
             d[j], bezier_blends[j] = found
     d_after = d.copy()
     if g2_limits is not None:  # S-curve mode: joints next to arcs and NURBS curvature-continuous where faster
-        cubic_r = np.where(curve, r_c, 0.0)
+        cubic_r = np.zeros(n - 1)
         for j in bezier_blends:
             cubic_r[j] = d[j] / np.tan(0.5 * theta[j])
         a_lim, j_lim = g2_limits[0], g2_limits[1]
@@ -246,7 +241,6 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
                              float(min(x_own[j], x_own[j + 1])), g2_limits)
             if found is not None:
                 d[j], d_after[j], bezier_blends[j] = found
-                curve[j] = False
     trim_out[:-1] = d
     trim_in[1:] += d_after
     # 3. lay out the pieces: each move's own piece, then the blend at its end
@@ -274,14 +268,6 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     pc.omega[k] = 1.0 / radius[jb]
     pc.length[k] = radius[jb] * theta[jb]
     # 4. the Bezier blends (at arcs, at NURBS, curvature-continuous) with their drivers
-    jc = np.nonzero(curve[:emit])[0]
-    if len(jc):
-        a_pt, ta = move_points(arcs.geometry, start, unit, is_arc, jc, length[jc] - d[jc])
-        b_pt, tb = move_points(arcs.geometry, start, unit, is_arc, jc + 1, d[jc])
-        h = (4.0 / 3.0 * np.tan(0.25 * theta[jc]) * r_c[jc])[:, None]  # cubic approximation of a circular arc
-        ctrl = np.stack([a_pt, a_pt + h * ta, b_pt - h * tb, b_pt], axis=1)
-        for k, j in enumerate(jc):
-            _put_blend(pc, bl[j], ctrl[k], nurbs, add_blend)
     for j, ctrl in bezier_blends.items():
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for j in np.nonzero(g2[:emit])[0]:
