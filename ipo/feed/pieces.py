@@ -13,9 +13,9 @@ their entity and are walked by its stepper; the planner only samples their geome
 Corner blending (G64 P): the corner between two line-like moves is replaced by the
 circular arc tangent to both whose deviation from the corner is P,
 R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
-(theta the change of direction); a corner between a line and an arc, or two arcs, gets a
-cubic of the same size. A corner that involves a NURBS gets a cubic sized by the same
-rule and checked against the programmed corner (ipo.feed.blends.nurbs_corner); the NURBS is trimmed to
+(theta the change of direction). A corner that involves an arc or a NURBS gets a cubic
+sized by the same rule, then checked against the programmed corner and shrunk until within P,
+since the moves bend within the trim (ipo.feed.blends.nurbs_corner); a NURBS is trimmed to
 the part between its blends (ipo.nurbs.subcurve), which its stepper walks. In S-curve mode a
 corner between two lines gets a curvature-continuous quintic within P instead of the arc
 (ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. Likewise

@@ -4,9 +4,9 @@ Why an explicit step: numba compiles a kernel on its first call and caches the m
 (`cache=True`) in a directory keyed by the kernels' source (ipo/kernel_cache.py), the numba
 version and the CPU. The cache is therefore made on the machine that runs vcnc, once per install
 (and again after a kernel changes); it cannot ship in the repository. The warm-up also deletes
-the caches of other source versions unused for a week (an upgrade leaves the old one behind). Compiling the kernels a run
-uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the look-ahead's `backward` and the
-steppers' `_walk`, which inline their callees). Done by `vcnc warmup` in the install command,
+the caches of other source versions unused for a week (an upgrade leaves the old one behind).
+Compiling the kernels a run uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the
+look-ahead's `backward` and the steppers' `_walk`, which inline their callees). Done by `vcnc warmup` in the install command,
 a user's first `vcnc run` loads cached kernels instead of compiling them (measured figures in
 bench/run.py and docs/throughput.md).
 

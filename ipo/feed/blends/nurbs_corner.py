@@ -1,11 +1,12 @@
-"""G64 corner blends where a NURBS meets a line, an arc or another NURBS non-tangentially.
+"""G64 corner blends next to a curve: where an arc or a NURBS meets a line, an arc or a NURBS
+non-tangentially (the module kept its first name; arcs came later).
 
 The blend is sized by the rule of the line and arc corners (ipo.feed.pieces): a circular arc of
 radius R tangent to both tangents at the corner, R (sec(theta/2) - 1) <= P, whose tangent
 points lie d = R tan(theta/2) from the corner, within what either move may give up. The
 moves are trimmed back by d along their arc length, and a cubic joins the trimmed ends,
-tangent to both, with the handles of the circular arc through them. Because a NURBS may
-bend within d, the cubic is then checked against the programmed corner (its largest
+tangent to both, with the handles of the circular arc through them. Because an arc or a
+NURBS bends within d, the cubic is then checked against the programmed corner (its largest
 distance from the two moves, its distance from the corner point) and shrunk until both
 are within P.
 """
