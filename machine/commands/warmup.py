@@ -6,9 +6,9 @@ version and the CPU. The cache is therefore made on the machine that runs vcnc, 
 (and again after a kernel changes); it cannot ship in the repository. The warm-up also deletes
 the caches of other source versions unused for a week (an upgrade leaves the old one behind).
 Compiling the kernels a run uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the
-look-ahead's `backward` and the steppers' `_walk`, which inline their callees). Done by `vcnc warmup` in the install command,
-a user's first `vcnc run` loads cached kernels instead of compiling them (measured figures in
-bench/run.py and docs/throughput.md).
+look-ahead's `backward` and the steppers' `_walk`, which inline their callees). Done by
+`vcnc warmup` in the install command, a user's first `vcnc run` loads cached kernels instead
+of compiling them (measured figures: bench/run.py).
 
 The warm-up runs a short built-in program through the same check → plan → interpolate → drive
 path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method,
