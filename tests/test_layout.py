@@ -77,7 +77,7 @@ def _room(module: str) -> str:
 
 def test_the_rooms_table_is_read_from_real_packages():
     assert {"ipo.feed.planner", "ipo.nurbs.kernel", "ipo.fit.convert", "ipo.surface.iges", "ipo.errors"} <= set(MODULES)
-    assert _room("ipo.feed.blends.nurbs_corner") == "ipo.feed.blends" and _room("ipo.contracts") == "ipo"
+    assert _room("ipo.feed.blends.curve_corner") == "ipo.feed.blends" and _room("ipo.contracts") == "ipo"
     assert "ipo.nurbs.kernel" in GRAPH["ipo.nurbs.compiled"]  # the parser sees imports
 
 

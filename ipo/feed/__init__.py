@@ -9,7 +9,7 @@ machine stands).
 - `split`: a NURBS with C0 corners inside it, as its parts (and the check that refuses a
   curve the planner cannot follow).
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
-  the corners next to arcs and NURBS (`nurbs_corner`), the curvature-continuous corners of S-curve mode
+  the corners next to arcs and NURBS (`curve_corner`), the curvature-continuous corners of S-curve mode
   (`curvature_continuous` between lines, `g2_joints` next to arcs and NURBS) and their
   compiled kernels (`compiled`).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.

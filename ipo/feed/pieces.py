@@ -15,7 +15,7 @@ circular arc tangent to both whose deviation from the corner is P,
 R (1/cos(theta/2) - 1) <= P, and whose tangent points lie within half of each move
 (theta the change of direction). A corner that involves an arc or a NURBS gets a cubic
 sized by the same rule, then checked against the programmed corner and shrunk until within P,
-since the moves bend within the trim (ipo.feed.blends.nurbs_corner); a NURBS is trimmed to
+since the moves bend within the trim (ipo.feed.blends.curve_corner); a NURBS is trimmed to
 the part between its blends (ipo.nurbs.subcurve), which its stepper walks. In S-curve mode a
 corner between two lines gets a curvature-continuous quintic within P instead of the arc
 (ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. Likewise
@@ -36,7 +36,7 @@ from ipo.nurbs import kernel as nk
 from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.g2_joints import g2_joint
-from ipo.feed.blends.nurbs_corner import Side, corner_blend
+from ipo.feed.blends.curve_corner import Side, corner_blend
 from ipo.feed.analytic import Geometry, evaluate, frame
 from ipo.feed.arcs import ArcSpecs, arc_pieces, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
@@ -212,7 +212,7 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     # a corner next to an arc or a NURBS gets a cubic blend from the point d before it to the
     # point d after it, tangent to both moves, with the handles of a circular arc: sized like the
     # circular blend between lines, then checked against the moves (which bend within d) and
-    # shrunk until within P (ipo.feed.blends.nurbs_corner)
+    # shrunk until within P (ipo.feed.blends.curve_corner)
     movable = line_like | is_arc
     at_curve = (((movable[:-1] & movable[1:] & ~both) | is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0)
                 & (length[:-1] > 0) & (length[1:] > 0) & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))

@@ -1,6 +1,6 @@
 """Corner blends the feed stage inserts under G64 besides the line/arc arcs of ipo.feed.pieces.
 
-- `nurbs_corner`: a cubic blend where an arc or a NURBS meets another move at a corner, checked within P.
+- `curve_corner`: a cubic blend where an arc or a NURBS meets another move at a corner, checked within P.
 - `curvature_continuous`: quintic Bezier corners of continuous curvature between lines (S-curve mode).
 - `g2_joints`: curvature-continuous joints next to arcs and NURBS, tangent or at a corner: both
   moves trimmed and joined by the quintic matching point, tangent and curvature (S-curve mode).

@@ -19,7 +19,7 @@ The derivative scale h (the chord) gave the lowest peak |dkappa/ds| of the scale
 1.5 h on line-arc joints, within 2.3x of a clothoid's constant rate over the same length.
 
 d_a and d_b grow together (each up to its move's reach) to the largest that keeps the
-quintic within P of the programmed path (ipo.feed.blends.nurbs_corner.deviation): the
+quintic within P of the programmed path (ipo.feed.blends.curve_corner.deviation): the
 longer the joint, the gentler its curvature ramp. A corner between moves of uneven reach
 also tries the shorter one whole with only the longer one shrunk, and keeps the faster
 (g1_lhchips4's lead-out arcs meet 0.3 mm polyline moves: 1.2 % off its first 400 lines' cycle). It is taken only where its cap on v^2
@@ -34,7 +34,7 @@ import numpy as np
 
 from ipo.feed.blends.compiled import bezier_frame
 from ipo.feed.blends.curvature_continuous import arc_blend_x, g2_corner_x, g2_reach_mm
-from ipo.feed.blends.nurbs_corner import Side, deviation
+from ipo.feed.blends.curve_corner import Side, deviation
 
 _CHECK = 65  # points checked along the quintic for its deviation
 _CAP_SAMPLES = 257  # points of the quintic its curvature caps are read from

@@ -5,7 +5,7 @@ helices by their angle).
 The blend was sized by the rule of the line corners alone (d = R tan(theta/2), R (sec(theta/2)
 - 1) = P) while an arc bends within d: on random arc chains at P = 0.2 it missed P by up to
 1.64 um beyond the chord tolerance (26 of 41 seeds); it is now checked against the moves and
-shrunk as the NURBS corners are (ipo.feed.blends.nurbs_corner)."""
+shrunk as the NURBS corners are (ipo.feed.blends.curve_corner)."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,5 +1,5 @@
 """G64 corner blends next to a curve: where an arc or a NURBS meets a line, an arc or a NURBS
-non-tangentially (the module kept its first name; arcs came later).
+non-tangentially.
 
 The blend is sized by the rule of the line and arc corners (ipo.feed.pieces): a circular arc of
 radius R tangent to both tangents at the corner, R (sec(theta/2) - 1) <= P, whose tangent
