@@ -23,7 +23,8 @@ programs/demo.nc (programs/machine.toml).
    (integration, limits, measurements), trace (the sink), other (the run loop).
 3. `vcnc interp` on a cubic NURBS with 30 control points (bench/interp.py's throughput
    curve), recursive n1 = 2, D = its length / 2,000,000: the periods per second it reports
-   (its stepping's wall time) and periods per wall second of the whole process.
+   (its stepping's wall time) and periods per wall second of the whole process, warm (a
+   short run first fills numba's cache if it lacks the steppers).
 
 Bars (issue 22): >= 1000x real time by CPU time on g1_stellabee1 and g1_lhchips4, >= 200x on
 g6_farfalla; the 2 M-line program within 600 MB; demo's first run <= 10 s; vcnc interp
@@ -275,6 +276,7 @@ def main() -> None:
 
     print("\n3. vcnc interp, 30-point cubic NURBS, recursive n1 = 2, 2,000,000 periods")
     prog, length = nurbs_program(tmp / "curve30.nc")
+    process(["interp", str(prog), "--step-um", f"{length / 1e3 * 1e3:.9g}", "--json"])  # warm, as section 1's rows
     r = process(["interp", str(prog), "--step-um", f"{length / 2e6 * 1e3:.9g}", "--json"])
     s = json.loads(r["stdout"].strip().splitlines()[-1])
     print(f"   {s['steps']:,} periods: {s['steps_per_s'] / 1e6:.2f} M/s as reported (stepping wall time); "

@@ -2,8 +2,8 @@
 
 `vcnc --help` lists the commands from machine.cli.SHORT_HELP without importing their modules;
 these tests check that listing against each command's own docstring, that help loads none of
-the heavy libraries, and that `vcnc warmup` compiles every kernel a `vcnc run --plot` of the
-demo uses, so that run compiles nothing.
+the heavy libraries, and that `vcnc warmup` compiles every kernel a `vcnc run --plot` and a
+`vcnc interp` of the demo use, so those compile nothing.
 """
 from __future__ import annotations
 
@@ -54,3 +54,11 @@ def test_warmup_leaves_nothing_to_compile_for_the_demo(tmp_path):
     assert run.returncode == 0, run.stderr
     assert json.loads(run.stdout)["state"] == "completed"
     assert "numba compiled" not in run.stderr
+    code = ("from click.testing import CliRunner; from numba.core import event; from machine.cli import main; n = []; "
+            "L = type('L', (event.Listener,), {'on_start': lambda s, e: None, 'on_end': lambda s, e: n.append(e)}); "
+            "cm = event.install_listener('numba:compile', L()); cm.__enter__(); "
+            "r = CliRunner().invoke(main, ['interp', 'programs/demo.nc', '--json']); assert r.exit_code == 0, r.output; "
+            "print(len(n))")
+    interp = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
+    assert interp.returncode == 0, interp.stderr
+    assert interp.stdout.strip() == "0"  # `vcnc interp` compiles nothing either

@@ -14,7 +14,8 @@ The warm-up runs a short built-in program through the same check → plan → in
 path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method,
 then once on each controller twin),
 with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses;
-then it interprets a few hundred plain moves, for the interpreter's own kernels (ipr.plain_runs).
+then it steps the program at a constant chord as `vcnc interp` does, and interprets a few hundred
+plain moves, for the interpreter's own kernels (ipr.plain_runs).
 """
 from __future__ import annotations
 
@@ -63,6 +64,7 @@ def command(machine_file):
     import dataclasses
 
     from ipo.config import METHODS, PLANNERS
+    from ipo.interp.chord_study import study
     from ipr import parse_text
     from ipr.interpreter import SCAN_LINES
     from machine.controller import Controller
@@ -87,6 +89,8 @@ def command(machine_file):
             digest.finish()
             if result.state != "completed":
                 raise click.ClickException(f"warm-up run {cfg.planner} {method}: {result.state}: {result.fault}")
+        # `vcnc interp`'s steppers (one signature serves every method and option: they are values)
+        study(parse_text(WARMUP_PROGRAM).entities, 0.5)
         # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
         # program as short as the one above does not reach
         parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
