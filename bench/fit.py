@@ -5,13 +5,15 @@
 conversion: at T = 5 um and 10 um, for g1_lhchips4.ngc, g1_stellabee1.ngc (its first
 STELLA_LINES lines: a deterministic part, the whole file takes too long to run here),
 programs/finish_g01.nc and a generated freeform (a 3-D spiral over a bump, 30000 lines: the
-issue's 30k-line speed bar):
+issue's 30k-line speed bar), each fitted as `vcnc fit` does (every group tabled by the
+controller's check; one it refuses stays G01):
 blocks and bytes before/after and their ratios, the largest deviation (checked on the
-curves as written), the fit time (wall clock, with the machine's 1-minute load average
-beside it: the machine is shared) and the cycle time on vcnc's controller (default
-machine, finish_machine.toml for the finishing program) before and after, with the feed
-fluctuation (std/mean of the cutting feed). Blocks are counted as written: a G06.2 group
-is one block per control point plus its closing knot blocks.
+curves as written), the fit time (wall clock, the controller's tables included, with the
+machine's 1-minute load average beside it: the machine is shared) and the cycle time on
+vcnc's controller (default machine, finish_machine.toml for the finishing program) before
+and after with its change, and the feed fluctuation (std/mean of the cutting feed). Blocks
+are counted as written: a G06.2 group is one block per control point plus its closing knot
+blocks.
 corpus: the proxy of the issue's hidden-programs median: every G01 program of the corpus
 (../shared/corpus/linuxcnc/g1_*.ngc, read in place) fitted whole at 10 um, its blocks
 before/after and where they go (in groups: 5 blocks of opening and closing each, corners kept
@@ -88,6 +90,14 @@ def programs(quick: bool) -> list[tuple[str, str, Path | None]]:
     return out
 
 
+def _check(machine: Path | None):
+    """vcnc fit's test of each group by the controller (a group it refuses stays G01)."""
+    from machine.commands.fit import controller_check
+    from ipo.config import default_config, load_config
+
+    return controller_check(default_config() if machine is None else load_config(machine))
+
+
 def _cycle(text: str, machine: Path | None, tmp: Path, name: str) -> tuple[float, float]:
     """Cycle time (s) and feed fluctuation (%) on vcnc's controller."""
     from machine.commands.compare import _feed_figures, _run
@@ -104,21 +114,21 @@ def conversion_table(quick: bool, cycle: bool = True, jobs: int | None = None) -
 
     print("\n== G01/G2/G3 chains -> G06.2 (rational quadratic conic spans, the default), per program and tolerance")
     head = (f"{'program':40s} {'T um':>4s} {'blocks':>15s} {'x':>6s} {'bytes':>17s} {'x':>6s} "
-            f"{'max dev um':>10s} {'fit s':>6s} {'load':>5s} {'cycle s':>17s} {'fluct %':>13s}")
+            f"{'max dev um':>10s} {'fit s':>6s} {'load':>5s} {'cycle s, change':>21s} {'fluct %':>13s}")
     print(head)
     with tempfile.TemporaryDirectory() as tmp:
         for name, text, machine in programs(quick):
             before = _cycle(text, machine, Path(tmp), "before.nc") if cycle else None
             for tol in TOLS_MM:
-                out, rep = convert_text(text, tol, file=name, jobs=jobs)
+                out, rep = convert_text(text, tol, file=name, jobs=jobs, walkable=_check(machine))
                 parse_text(out)  # the output must be a valid program
                 after = _cycle(out, machine, Path(tmp), "after.nc") if cycle else None
-                times = f"{before[0]:8.1f}->{after[0]:<8.1f}" if cycle else "-"
+                times = f"{before[0]:6.1f}->{after[0]:<6.1f} {100 * (after[0] / before[0] - 1):+5.1f}%" if cycle else "-"
                 fluct = f"{before[1]:5.1f}->{after[1]:<6.1f}" if cycle else "-"
                 print(f"{name:40s} {tol * 1e3:4.0f} {rep.blocks_before:>7d}->{rep.blocks_after:<7d} "
                       f"{rep.blocks_before / rep.blocks_after:6.2f} {rep.bytes_before:>8d}->{rep.bytes_after:<8d} "
                       f"{rep.bytes_before / rep.bytes_after:6.2f} {rep.max_deviation_mm * 1e3:10.3f} "
-                      f"{rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f} {times:>17s} {fluct:>13s}", flush=True)
+                      f"{rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f} {times:>21s} {fluct:>13s}", flush=True)
                 assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
 
 
@@ -134,7 +144,7 @@ def corpus_table(jobs: int | None = None) -> None:
     ratios = []
     for name in names:
         text = (CORPUS / name).read_bytes().decode("utf-8", "replace")
-        out, rep = convert_text(text, MEDIAN_TOL_MM, file=name, jobs=jobs)
+        out, rep = convert_text(text, MEDIAN_TOL_MM, file=name, jobs=jobs, walkable=_check(None))
         parse_text(out)
         ratio = rep.blocks_before / rep.blocks_after
         counted = name in FINISHING

@@ -17,6 +17,7 @@
 - `distance`: the two-way distance between a written curve and the path it replaces, bounded
   from above (the check of the curve as written).
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).
+- `written`: a fit as the G06.2 or G5.2 blocks that write it, and the curve exactly as written.
 
 May import: ipo.errors, ipo.nurbs, ipr, numpy, numba.
 """

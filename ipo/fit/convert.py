@@ -5,8 +5,9 @@ spans with their own knots and weights (ipo.fit.conic_plan, ipo.fit.weights); G5
 of 3 or more, 001's rational fits on uniform knots (ipo.fit.groups); a sharp corner is a knot of
 multiplicity = degree. The program is interpreted once, line by line, so each entity keeps its
 source line and the modes and offsets in force there; lines outside a fitted piece are copied
-unchanged. The curve as written (rounded) is checked against the tolerance again; a piece that
-fails stays G01.
+unchanged. The curve as written (rounded) is checked against the tolerance again, and by the
+controller's own test where the caller hands it in (`walkable`: machine/ does, so that vcnc fit
+never writes a group vcnc run refuses); a piece that fails either stays G01.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import multiprocessing
 import os
 import re
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
@@ -25,9 +27,9 @@ from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain, sharp_of
 from ipo.fit.quadratic import plan_chain_conic
-from ipo.fit.rational import RationalFit
+from ipo.fit.written import Frame, coordinate_digits, feed_text, g52_text, group_text, rounding_bound_mm
 from ipr import Setup, parse_line
-from ipr.entities import Arc, Line
+from ipr.entities import Arc, Line, Nurbs
 from ipr.gcodes import FEED_PER_MINUTE
 from ipr.interpreter import Interpreter
 
@@ -37,21 +39,7 @@ DIALECTS = ("g06.2", "g5.2")
 AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
-END_DIGITS = 9  # the last control point: as exact as the source's own number
-WEIGHT_DIGITS = 7  # significant digits of a weight (weights span several decades)
-KNOT_DIGITS = 6
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
-
-
-@dataclass(frozen=True, slots=True)
-class Frame:
-    """How program numbers map to machine mm on a line: machine = value * unit + offset (G90)."""
-
-    unit_mm: float
-    absolute: bool
-    offset_mm: tuple[float, float, float]
-    plane: str = "XY"
-    per_minute: bool = True  # G94 (a G93/G95 block carries its own feed: not fitted)
 
 
 @dataclass(slots=True)
@@ -76,21 +64,6 @@ def count_blocks(text: str) -> int:
     """Lines that carry a word (not blank, not comment-only, not '%')."""
     words = (re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip() for raw in text.split("\n"))
     return sum(1 for s in words if s and s != "%")
-
-
-def fmt(value: float, digits: int) -> str:
-    s = f"{value:.{digits}f}".rstrip("0").rstrip(".")
-    return "0" if s in ("", "-0", "-") else s
-
-
-def coordinate_digits(tol_mm: float, unit_mm: float) -> int:
-    """Decimals for interior control points: a rounding step no larger than tol / 8.7, so that
-    rounding all three axes (half a step each) moves the curve by at most ~tol / 10."""
-    return max(3, math.ceil(-math.log10(tol_mm / (8.7 * unit_mm))))
-
-
-def rounding_bound_mm(digits: int, unit_mm: float) -> float:
-    return 0.5 * 10.0**-digits * unit_mm * math.sqrt(3.0)
 
 
 def _interpret(lines: list[str], file: str, setup: Setup | None):
@@ -166,85 +139,19 @@ def _with_feed(text: str, feed: str | None) -> str:
     return f"{text.rstrip()} F{feed}"
 
 
-def feed_text(feed_mm_s: float, frame: Frame) -> str:
-    return fmt(feed_mm_s * 60.0 / frame.unit_mm, 6)
-
-
-def _written(fit: RationalFit, frame: Frame, digits: int) -> tuple[list[list[str]], np.ndarray]:
-    """The axis words of control points 1.. (absolute or, in G91, relative to the previous one; the
-    last one as exact as the source's own number) and every control point as these words put it."""
-    unit, off = frame.unit_mm, np.array(frame.offset_mm)
-    start = fit.points[0]
-    step = 10 ** (END_DIGITS - digits)
-    if frame.absolute:
-        nano = np.rint((fit.points - off) / unit * 10**END_DIGITS).astype(np.int64)
-    else:
-        nano = np.rint((fit.points - start) / unit * 10**END_DIGITS).astype(np.int64)
-    nano[1:-1] = np.rint(nano[1:-1] / step).astype(np.int64) * step
-    words = nano[1:] if frame.absolute else np.diff(nano, axis=0)
-    written = [[fmt(v / 10**END_DIGITS, END_DIGITS) for v in row] for row in words]
-    values = np.array([[float(v) for v in row] for row in written])
-    pts = np.empty_like(fit.points)
-    pts[0] = start
-    pts[1:] = values * unit + off if frame.absolute else start + np.cumsum(values, axis=0) * unit
-    return written, pts
-
-
-def group_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
-    """Fanuc G06.2 blocks for `fit` (points in machine mm) and the curve exactly as written."""
-    p = fit.degree
-    written, pts = _written(fit, frame, digits)
-    weights = np.array([round(w, weight_decimals(w)) for w in fit.weights])
-    knots = np.round(fit.knots, KNOT_DIGITS)
-
-    def r_word(i):
-        return "" if weights[i] == 1.0 else f" R{fmt(weights[i], weight_decimals(weights[i]))}"
-
-    out = [f"G06.2 P{p + 1} K{fmt(knots[0], KNOT_DIGITS)}{r_word(0)} F{feed_text(feed_mm_s, frame)}"]
-    prev = None
-    for i, vals in enumerate(written, 1):
-        axes = "".join(f" {a}{v}" for a, v, pv in zip("XYZ", vals, prev or (None,) * 3)
-                       if (v != pv if frame.absolute else v != "0"))
-        out.append(f"K{fmt(knots[i], KNOT_DIGITS)}{axes}{r_word(i)}")
-        prev = vals
-    out += [f"K{fmt(k, KNOT_DIGITS)}" for k in knots[len(fit.points):]]
-    return out, replace(fit, points=pts, weights=weights, knots=knots)
-
-
-def weight_decimals(w: float) -> int:
-    """Decimals that write a weight (0 < w <= 1) with WEIGHT_DIGITS significant digits."""
-    return max(WEIGHT_DIGITS - 1 - math.floor(math.log10(w)), 0)
-
-
-def g52_text(fit: RationalFit, feed_mm_s: float, frame: Frame, digits: int) -> tuple[list[str], RationalFit]:
-    """LinuxCNC G5.2 blocks (XY plane, one Z) for a fit on uniform knots, and the curve as written.
-
-    G5.2 takes the current position as control point 0 with weight 1 and makes its own uniform
-    knots (ipr.nurbs_groups.g5_knots: 001's uniform_knots scaled), so the weights are scaled to
-    w_0 = 1 (the curve is the same) and no knot is written: m control points cost m - 1 blocks
-    and the closing G5.3."""
-    written, pts = _written(fit, frame, digits)
-    weights = np.round(fit.weights / fit.weights[0], 6)
-    weights[0] = 1.0
-    out = []
-    for i, vals in enumerate(written, 1):
-        head = f"G5.2 L{fit.degree + 1} F{feed_text(feed_mm_s, frame)} " if i == 1 else ""
-        out.append(f"{head}X{vals[0]} Y{vals[1]} P{fmt(weights[i], 6)}")
-    out.append("G5.3")
-    pts[:, 2] = fit.points[0, 2]
-    return out, replace(fit, points=pts, weights=weights)
-
-
 def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_deg: float = DEFAULT_CORNER_DEG,
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
                  accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0, reach_mm_s: float | None = None,
-                 dialect: str = "g06.2") -> tuple[str, ConvertReport]:
+                 dialect: str = "g06.2", walkable: Callable[[Nurbs], str | None] | None = None
+                 ) -> tuple[str, ConvertReport]:
     """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes for the
     fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the sharp-corner test of
     ipo.fit.chains; reach_mm_s: the fastest path speed its axes reach together (feeds at or above it are one
     feed, ipo.fit.chains.same_feed; default that of max_feed_mm_s on three axes; 0: never merge feeds);
     dialect: "g06.2" (Fanuc, 3-D, knots written, groups through corners) or "g5.2" (LinuxCNC, XY plane at
-    one Z, uniform knots, a group per piece); degree: None for the dialect's own (G06.2: 2, conic spans; G5.2: 3))."""
+    one Z, uniform knots, a group per piece); degree: None for the dialect's own (G06.2: 2, conic spans; G5.2: 3);
+    walkable: the controller's test of a group as written (None, or why it cannot follow it: machine/ hands in
+    its check, ipo.feed.split.planning_problem); a group it refuses stays as the moves it replaces)."""
     if dialect not in DIALECTS:
         raise IpoError(FIT_SETTINGS, f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
@@ -282,7 +189,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
         frame = frames[chain.moves[0].line]
         new, last_is_group = _convert_chain(chain, spans, lines, frame, tol_mm, report,
-                                            g52_text if dialect == "g5.2" else group_text)
+                                            g52_text if dialect == "g5.2" else group_text, walkable)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
@@ -351,7 +258,7 @@ def _plan_all(planner, chains: list[Chain], options: list[FitOptions], jobs: int
 
 
 def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Frame, tol_mm: float,
-                   report: ConvertReport, writer) -> tuple[list[str] | None, bool]:
+                   report: ConvertReport, writer, walkable) -> tuple[list[str] | None, bool]:
     """New text for one chain from its spans (None if it stays as it is), and whether it ends in a group."""
     digits = coordinate_digits(tol_mm, frame.unit_mm)
     out: list[str] = []
@@ -360,7 +267,7 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
     for span in spans:
         moves = chain.moves[span.first:span.last]
         group = _group_for(span, moves, _group_feed(chain, span), frame, digits, tol_mm, chain.sag_mm, report,
-                           writer) if span.fit is not None else None
+                           writer, walkable) if span.fit is not None else None
         if group is None:
             src = [lines[m.line - 1] for m in moves]
             if after_group:  # pure blocks: G1/G2/G3 or none; the program's feed if the group wrote another
@@ -389,11 +296,17 @@ def _group_feed(chain: Chain, span: Span) -> float:
     return min(m.feed_mm_s for m in chain.moves[span.first:span.last])
 
 
-def _group_for(span: Span, moves, feed_mm_s, frame, digits, tol_mm, sag_mm, report, writer) -> list[str] | None:
+def _group_for(span: Span, moves, feed_mm_s, frame, digits, tol_mm, sag_mm, report, writer,
+               walkable) -> list[str] | None:
     text, written = writer(span.fit, feed_mm_s, frame, digits)
     dev = written_deviation_mm(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
     if dev > tol_mm:
         report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))
         return None
+    if walkable is not None:
+        why = walkable(Nurbs(moves[0].line, written.degree, written.knots, written.weights, written.points, feed_mm_s))
+        if why is not None:
+            report.kept_g01.append((moves[0].line, f"the controller cannot follow the group: {why}"))
+            return None
     report.max_deviation_mm = max(report.max_deviation_mm, dev)
     return text

@@ -3,19 +3,31 @@
 Fits every chain of G1/G2/G3 moves (ipo.fit.chains: corners do not end a chain; sharp
 ones stay sharp inside the curve) with 001's rational B-spline approximation, the
 fewest written blocks within T of the path both ways, and writes the program with
-Fanuc G06.2 groups; everything else is copied. Prints chains, blocks and bytes
-before/after, the largest deviation and the fit time; with --compare also what the
-user gains on vcnc's controller: cycle time and feed fluctuation of both programs
-(the figures of `vcnc compare IN OUT`).
+Fanuc G06.2 groups; everything else is copied. Each group is tabled as the controller's
+check tables it (controller_check); one it would refuse stays as the moves it replaces.
+Prints chains, corners, blocks and bytes before/after, the largest deviation and the fit
+time; with --compare also what the user gains on vcnc's controller: cycle time and feed
+fluctuation of both programs (the figures of `vcnc compare IN OUT`).
 """
 from __future__ import annotations
 
 import math
 import sys
+from functools import partial
 
 import click
 
 from machine.commands import INPUT_FILE, OutputPath, refusal
+
+
+def controller_check(config):
+    """The controller's own test of a group (the arc-length tables its check and planner build first,
+    ipo.feed.split.planning_problem): None, or why it cannot follow it. convert_text keeps a group it
+    refuses as the moves it replaces, so that `vcnc fit` never writes what `vcnc run` would refuse."""
+    from ipo.feed.planner import nurbs_end_gap_mm
+    from ipo.feed.split import planning_problem
+
+    return partial(planning_problem, end_gap_mm=nurbs_end_gap_mm(config))
 
 
 def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
@@ -24,8 +36,11 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
     lines = [
         f"tolerance        {tol_mm * 1e3:.3f} um (both ways, on the curves as written)",
         f"chains           {rep.chains} (G1/G2/G3 moves without a break; corners do not break them)",
-        f"{dialect.upper() + ' groups':16s} {rep.groups} replacing {rep.moves_replaced} moves;"
-        f" {rep.sharp_corners} corners kept sharp inside them (knots of multiplicity = degree)",
+        f"{dialect.upper() + ' groups':16s} {rep.groups} replacing {rep.moves_replaced} moves",
+        f"corners          {rep.sharp_vertices} vertices must stay sharp (turns over --corner-deg that no rounding"
+        " within the tolerance lets the machine follow at their feed)",
+        f"                 {rep.sharp_corners} corners inside the groups (knots of multiplicity = degree),"
+        f" {rep.double_knots} more knots of multiplicity 2 where only the weights restart (tangent there)",
         f"kept as written  {len(rep.kept_g01)} pieces",
         f"blocks           {rep.blocks_before} -> {rep.blocks_after}  ({ratio_blocks:.2f}x fewer;"
         " a group counted as written: a block per control point, plus the closing knot blocks of G06.2"
@@ -53,7 +68,8 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
               help="Curve degree (G06.2 P = degree + 1)  [default: 2 with G06.2: rational quadratic spans with "
                    "their own knots; 3 with G5.2]; 3..5 with G06.2 fits 001's curves on uniform knots.")
 @click.option("--corner-deg", default=30.0, show_default=True, type=float,
-              help="A turn sharper than this between two moves ends a run.")
+              help="A turn sharper than this between two moves stays a sharp corner where no rounding within "
+                   "the tolerance can be followed at the programmed feed; smaller turns are never forced sharp.")
 @click.option("--jobs", type=click.IntRange(min=1), default=None,
               help="Worker processes for the fits  [default: one per core].")
 @click.option("--dialect", type=click.Choice(["g06.2", "g5.2"]), default="g06.2", show_default=True,
@@ -89,7 +105,7 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     try:
         result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
                                       accel_mm_s2=accel, max_feed_mm_s=vmax, reach_mm_s=reach,
-                                      dialect=dialect)
+                                      dialect=dialect, walkable=controller_check(config))
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)

@@ -275,3 +275,40 @@ def test_vcnc_compare_roughness_needs_a_cut_that_moves_a_blu(tmp_path):
     still.write_text("G21 G90 G17 G64\nS12500 M3\nG0 X0 Y0 Z0\nG1 X0.0004 F0.05\nM5\nM2\n")
     res = CliRunner().invoke(main, ["compare", str(still), str(still), "--machine", str(machine)])
     assert res.exit_code != 0 and "less than a BLU" in res.output
+
+
+@pytest.mark.slow
+def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
+    """LinuxCNC's lhchips4, lines 4511-4808 (three raster passes), with every turn left to the fit
+    (--corner-deg 179: no vertex is forced sharp). Planned alone, one group hugs its corners with
+    weights from 1.7e-5 to 0.56 and moves so unevenly in its parameter that the controller's
+    arc-length table cannot hold it (E-NURBS-PATH, measured). vcnc fit tables every group as the
+    controller's check does and keeps that one as the moves it replaces: machine.check accepts the
+    program it writes."""
+    from conftest import require_corpus
+    from ipo.config import default_config
+    from ipo.feed.planner import nurbs_end_gap_mm
+    from ipo.feed.split import planning_problem
+    from machine.check import check_program
+    from machine.cli import main
+
+    path = require_corpus() / "g1_lhchips4.ngc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent")
+    lines = path.read_text().split("\n")[4510:4808]
+    # where line 4510 leaves the machine, and the modes in force there (lines 19 and 28 of the file)
+    text = "\n".join(["G21 G64 P0.1 Q0.01", "G18", "G0 X58.604 Y71.707 Z-22.308 F9991300.0", *lines, "M2", ""])
+    config = default_config()
+    gap = nurbs_end_gap_mm(config)
+    plain, _ = convert_text(text, 0.01, corner_deg=179.0, jobs=1)
+    refused = [e.line for e in parse_text(plain).entities if isinstance(e, Nurbs) and planning_problem(e, gap)]
+    assert refused  # the case the check is for
+    src, dst = tmp_path / "in.ngc", tmp_path / "out.ngc"
+    src.write_text(text)
+    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01", "--corner-deg", "179",
+                                    "--jobs", "1"])
+    assert res.exit_code == 0, res.output
+    assert "the controller cannot follow the group" in res.output
+    out = dst.read_text()
+    check_program(dst, config, np.array([a.min_mm for a in config.axes]), np.array([a.max_mm for a in config.axes]))
+    assert sum(isinstance(e, Nurbs) for e in parse_text(out).entities) >= 2

@@ -12,7 +12,8 @@ from scipy.spatial import cKDTree
 from ipr import parse_text
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs
 from ipo.fit.chains import rounding_radius_mm
-from ipo.fit.convert import convert_text, coordinate_digits, count_blocks, rounding_bound_mm
+from ipo.fit.convert import convert_text, count_blocks
+from ipo.fit.written import coordinate_digits, rounding_bound_mm
 
 
 
