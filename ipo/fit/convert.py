@@ -39,6 +39,7 @@ DIALECTS = ("g06.2", "g5.2")
 AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
+NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -275,7 +276,7 @@ def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Fra
                 src[0] = _restored(src[0], motion_code(moves[0]), feed)
             out += src
             if span.fit is None:
-                report.kept_g01.append((moves[0].line, "no group saves blocks"))
+                report.kept_g01.append((moves[0].line, NO_SAVING))
             after_group = False
         else:
             out += group

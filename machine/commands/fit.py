@@ -31,6 +31,8 @@ def controller_check(config):
 
 
 def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
+    from ipo.fit.convert import NO_SAVING
+
     ratio_blocks = rep.blocks_before / max(rep.blocks_after, 1)
     ratio_bytes = rep.bytes_before / max(rep.bytes_after, 1)
     lines = [
@@ -51,10 +53,13 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
         f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um",
         f"fit time         {rep.fit_time_s:.2f} s",
     ]
-    for line, why in rep.kept_g01[:10]:
+    plain = sum(why == NO_SAVING for _, why in rep.kept_g01)
+    # the pieces a fit could not write first (off after rounding, refused by the controller): they cost blocks
+    kept = sorted(rep.kept_g01, key=lambda k: k[1] == NO_SAVING)
+    for line, why in kept[:10]:
         lines.append(f"  kept G01 from line {line}: {why}")
-    if len(rep.kept_g01) > 10:
-        lines.append(f"  ... and {len(rep.kept_g01) - 10} more")
+    if len(kept) > 10:
+        lines.append(f"  ... and {len(kept) - 10} more ({min(plain, len(kept) - 10)} of them: {NO_SAVING})")
     return "\n".join(lines)
 
 
