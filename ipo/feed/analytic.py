@@ -113,3 +113,36 @@ def points_along(g, pstart, length, sv):
         loc[k] = i
         point_into(g, i, _clip(sv[k] - pstart[i], 0.0, length[i]), pos, k)
     return loc, pos
+
+
+@njit(cache=True)
+def point_tangent(g, i, sigma):
+    """Point and unit tangent of piece i at arc length sigma (one call, not evaluate and frame)."""
+    p = np.empty((1, 3))
+    t = np.empty((1, 3))
+    point_into(g, i, sigma, p, 0)
+    frame_into(g, i, sigma, t, np.empty((1, 3)), 0)
+    return p[0], t[0]
+
+
+@njit(cache=True)
+def points_along_piece(g, i, base, sign, x, n):
+    """evaluate(g, [i] * n, base + sign * np.linspace(0.0, x, n)) without the arrays: n points
+    of piece i from arc length base over x in direction sign (the corner checks of
+    ipo.feed.blends.curve_corner ask for 65 per side and try); linspace's arithmetic is numpy's,
+    so the points are the same bits."""
+    out = np.empty((n, 3))
+    div = n - 1
+    step = x / div if div > 0 else np.nan
+    for k in range(n):
+        if div <= 0:
+            y = k * x
+        elif step == 0.0:
+            y = (k / div) * x
+        else:
+            y = k * step
+        y += 0.0  # numpy adds the start
+        if k == div and k > 0:
+            y = x
+        point_into(g, i, base + sign * y, out, k)
+    return out

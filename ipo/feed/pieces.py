@@ -37,7 +37,7 @@ from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
 from ipo.feed.blends.g2_joints import g2_joint
 from ipo.feed.blends.curve_corner import Side, corner_blend
-from ipo.feed.analytic import Geometry, evaluate, frame
+from ipo.feed.analytic import Geometry, frame, point_tangent, points_along_piece
 from ipo.feed.arcs import ArcSpecs, arc_pieces, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
@@ -336,11 +336,9 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
         return Side(at, lambda x, n: nk.curve_points(e.degree, e.knots, e.weights, e.points,
                                                      np.linspace(u_corner, u_of(x), n)), kv)
     if isinstance(e, Arc):
-        def arc_at(x):
-            sigma = np.array([base + sign * x])
-            return evaluate(arcs.geometry, np.array([i]), sigma)[0], frame(arcs.geometry, np.array([i]), sigma)[0][0]
-
-        return Side(arc_at, lambda x, n: evaluate(arcs.geometry, np.full(n, i), base + sign * np.linspace(0.0, x, n)),
-                    lambda x: frame(arcs.geometry, np.array([i]), np.array([base + sign * x]))[1][0])
+        g = arcs.geometry
+        return Side(lambda x: point_tangent(g, i, base + sign * x),
+                    lambda x, n: points_along_piece(g, i, base, sign, x, n),
+                    lambda x: frame(g, np.array([i]), np.array([base + sign * x]))[1][0])
     return Side(lambda x: (start[i] + unit[i] * (base + sign * x), unit[i]),
                 lambda x, n: start[i] + unit[i] * (base + sign * np.array([0.0, x]))[:, None], lambda x: np.zeros(3))

@@ -30,7 +30,8 @@ from machine.commands import load_machine
 
 OLD_CACHE_S = 7 * 86400.0
 
-# The demo's shapes: a rapid, feeds, both arc directions and a rational quadratic NURBS (quarter circle).
+# The demo's shapes: a rapid, feeds, both arc directions and a rational quadratic NURBS (quarter circle),
+# and a corner between an arc and a line (its blend is checked by other kernels than a line corner's).
 WARMUP_PROGRAM = """\
 G21 G17 G90 G94 G64 P0.01
 G0 X0 Y0 Z5
@@ -38,6 +39,7 @@ G1 Z0 F600
 G1 X20 Y0 F3000
 G3 X30 Y10 I0 J10
 G2 X40 Y20 I10 J0
+G1 X40 Y25
 G1 X30 Y20
 G06.2 P3 K0 X30 Y20 Z0 R1 F3000
 K0 X30 Y30 R0.70710678

@@ -236,3 +236,36 @@ def polyline_distance(q, poly):
             best = min(best, np.sqrt(d0 * d0 + d1 * d1 + d2 * d2))
         out[m] = best
     return out
+
+
+@njit(cache=True)
+def cubic_points(basis, ctrl):
+    """Points (M, 3) of the cubic Bezier ctrl (4, 3) at the M parameters whose Bernstein
+    values are the rows of basis (M, 4), summed in the order of the array expression
+    b0 c0 + b1 c1 + b2 c2 + b3 c3 (the same bits)."""
+    q = np.empty((basis.shape[0], 3))
+    for m in range(basis.shape[0]):
+        for a in range(3):
+            q[m, a] = (basis[m, 0] * ctrl[0, a] + basis[m, 1] * ctrl[1, a]
+                       + basis[m, 2] * ctrl[2, a] + basis[m, 3] * ctrl[3, a])
+    return q
+
+
+@njit(cache=True)
+def blend_deviation(q, side_a, side_b, corner):
+    """The larger of the largest distance of the points q from the nearer of the polylines
+    side_a and side_b and the smallest distance of q from the corner point (NaN propagates,
+    as in numpy's minimum, max and min)."""
+    from_a, from_b = polyline_distance(q, side_a), polyline_distance(q, side_b)
+    far = -np.inf
+    near = np.inf
+    for m in range(q.shape[0]):
+        a, b = from_a[m], from_b[m]
+        d = a if (a <= b or a != a) else b
+        if far == far and (d > far or d != d):  # once NaN, stays NaN
+            far = d
+        d0, d1, d2 = q[m, 0] - corner[0], q[m, 1] - corner[1], q[m, 2] - corner[2]
+        c = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        if near == near and (c < near or c != c):
+            near = c
+    return near if near > far else far

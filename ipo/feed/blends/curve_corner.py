@@ -12,12 +12,13 @@ are within P.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
-from ipo.feed.blends.compiled import polyline_distance
+from ipo.feed.blends.compiled import blend_deviation, cubic_points, polyline_distance
 
 _CHECK_BLEND = 33  # points checked along the cubic (its midpoint among them)
 _CHECK_SIDE = 65  # points of each move's trimmed stretch (a polyline far finer than P)
@@ -40,15 +41,20 @@ def arc_cubic(a: np.ndarray, ta: np.ndarray, b: np.ndarray, tb: np.ndarray) -> n
     """Control points (4, 3) of the cubic from a to b tangent to ta and tb, with the handles
     h = 4/3 tan(phi/4) R of the circular arc of turn phi through a and b, which with the chord
     |b - a| = 2 R sin(phi/2) is h = |b - a| / (3 cos^2(phi/4))."""
-    phi = np.arccos(np.clip(np.dot(ta, tb), -1.0, 1.0))
-    h = np.linalg.norm(b - a) / (3.0 * np.cos(0.25 * phi) ** 2)
+    phi = np.arccos(min(max(float(np.dot(ta, tb)), -1.0), 1.0))  # np.clip of one float, without its overhead
+    chord = b - a
+    h = math.sqrt(chord.dot(chord)) / (3.0 * np.cos(0.25 * phi) ** 2)  # |b - a| as np.linalg.norm computes it
     return np.array([a, a + h * ta, b - h * tb, b])
 
 
-def _bezier(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
+def _bernstein3(u: np.ndarray) -> np.ndarray:
+    """The cubic Bernstein values (M, 4) at parameters u (M,)."""
     v = 1.0 - u[:, None]
     uu = u[:, None]
-    return v**3 * ctrl[0] + 3 * v * v * uu * ctrl[1] + 3 * v * uu * uu * ctrl[2] + uu**3 * ctrl[3]
+    return np.hstack([v**3, 3 * v * v * uu, 3 * v * uu * uu, uu**3])
+
+
+_CHECK_BASIS = _bernstein3(np.linspace(0.0, 1.0, _CHECK_BLEND))
 
 
 def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after: float, corner: np.ndarray,
@@ -59,8 +65,7 @@ def deviation(q: np.ndarray, before: Side, after: Side, d_before: float, d_after
     distance of those stretches' points from it (a move that bends within the stretch must
     not be cut across)."""
     side_a, side_b = before.polyline(d_before, side_points), after.polyline(d_after, side_points)
-    from_path = np.minimum(polyline_distance(q, side_a), polyline_distance(q, side_b))
-    worst = max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
+    worst = blend_deviation(q, side_a, side_b, np.asarray(corner, dtype=np.float64))
     if q_fine is None:
         return worst
     return max(worst, float(polyline_distance(side_a, q_fine).max()), float(polyline_distance(side_b, q_fine).max()))
@@ -78,7 +83,7 @@ def corner_blend(before: Side, after: Side, corner: np.ndarray, theta: float, to
         if not d > 0:
             return None
         ctrl = arc_cubic(*before.at(d), *after.at(d))
-        worst = deviation(_bezier(ctrl, np.linspace(0.0, 1.0, _CHECK_BLEND)), before, after, d, d, corner) / tol_mm
+        worst = deviation(cubic_points(_CHECK_BASIS, ctrl), before, after, d, d, corner) / tol_mm
         if worst <= 1.0 + _SLACK:
             return d, ctrl
         d *= min(0.99, 0.995 / worst)  # the deviation grows about linearly with d

@@ -1,0 +1,127 @@
+"""The faster pieces of the corner check next to arcs (issue 22: 17,597 such corners in
+g1_stellabee1 cost ~3 s of NumPy calls): each gives the same bits as the array expression it
+replaced, and the right number against an independent computation.
+
+- cubic_points: de Casteljau's construction (a different algorithm) and the Bernstein sum;
+- blend_deviation: brute-force distances to densely sampled segments, and numpy's
+  minimum / max / norm expression bit for bit, NaN included;
+- analytic.points_along_piece / point_tangent: evaluate and frame with numpy's linspace, bit for bit,
+  and the points on the circle (radius, angle) by hand.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ipo.feed.analytic import Geometry, evaluate, frame, point_tangent, points_along_piece
+from ipo.feed.blends.compiled import blend_deviation, cubic_points, polyline_distance
+from ipo.feed.blends.curve_corner import _CHECK_BASIS, _bernstein3, arc_cubic
+
+RNG = np.random.default_rng(22)
+
+
+def _de_casteljau(ctrl: np.ndarray, u: float) -> np.ndarray:
+    p = ctrl.copy()
+    for k in range(3, 0, -1):
+        p = (1 - u) * p[:k] + u * p[1:k + 1]
+    return p[0]
+
+
+def test_cubic_points_are_the_bezier_and_the_array_expressions_bits():
+    for _ in range(50):
+        ctrl = RNG.normal(size=(4, 3)) * 10 ** RNG.uniform(-3, 2)
+        q = cubic_points(_CHECK_BASIS, ctrl)
+        u = np.linspace(0.0, 1.0, len(_CHECK_BASIS))
+        ref = np.array([_de_casteljau(ctrl, x) for x in u])
+        np.testing.assert_allclose(q, ref, rtol=0, atol=1e-13 * np.abs(ctrl).max())
+        assert np.array_equal(q[[0, -1]], ctrl[[0, 3]])
+        b = _bernstein3(u)  # what curve_corner evaluated before: the same products, summed in order
+        expr = b[:, :1] * ctrl[0] + b[:, 1:2] * ctrl[1] + b[:, 2:3] * ctrl[2] + b[:, 3:] * ctrl[3]
+        assert np.array_equal(q, expr)
+
+
+def _brute(q: np.ndarray, poly: np.ndarray, samples: int) -> np.ndarray:
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    dense = np.vstack([a + t * (b - a) for a, b in zip(poly[:-1], poly[1:])])
+    return np.array([np.linalg.norm(dense - p, axis=1).min() for p in q])
+
+
+def _numpy_form(q, side_a, side_b, corner) -> float:
+    """What curve_corner.deviation computed before the kernel."""
+    from_path = np.minimum(polyline_distance(q, side_a), polyline_distance(q, side_b))
+    return max(float(from_path.max()), float(np.linalg.norm(q - corner, axis=1).min()))
+
+
+def test_blend_deviation_against_brute_force_and_numpys_bits():
+    for _ in range(5):
+        q = RNG.normal(size=(33, 3))
+        side_a, side_b = np.cumsum(RNG.normal(size=(65, 3)) * 0.1, axis=0), RNG.normal(size=(2, 3))
+        corner = RNG.normal(size=3)
+        got = blend_deviation(q, side_a, side_b, corner)
+        from_path = np.minimum(_brute(q, side_a, 2001), _brute(q, side_b, 20001))
+        expected = max(from_path.max(), np.linalg.norm(q - corner, axis=1).min())
+        assert got <= expected and got == pytest.approx(expected, abs=2e-4)  # the samples' spacing / 2
+        assert got == _numpy_form(q, side_a, side_b, corner)
+
+
+def test_blend_deviation_treats_nan_as_numpys_expression_did():
+    q = RNG.normal(size=(33, 3))
+    side = RNG.normal(size=(5, 3))
+    corner = np.array([np.nan, 0.0, 0.0])
+    assert blend_deviation(q, side, side, corner) == _numpy_form(q, side, side, corner)
+    q[7, 1] = np.nan
+    assert blend_deviation(q, side, side, np.zeros(3)) == _numpy_form(q, side, side, np.zeros(3))
+
+
+def _helix() -> Geometry:
+    """Piece 0 a helix of radius 2 about z by arc length (omega 0.4 rad/mm: 0.8 mm/mm about the
+    axis, 0.6 mm/mm along it); piece 1 a line."""
+    e1 = np.array([[1.0, 0, 0], [1, 0, 0]])
+    e2 = np.array([[0.0, 1, 0], [0, 1, 0]])
+    return Geometry(c=np.array([[1.0, -1, 0.5], [0, 0, 0]]), e1=e1, e2=e2,
+                    w=np.array([[0.0, 0, 0.6], [0.6, 0.8, 0]]), radius=np.array([2.0, 0.0]),
+                    dr=np.zeros(2), omega=np.array([0.4, 0.0]))
+
+
+@pytest.mark.parametrize("i", [0, 1])
+@pytest.mark.parametrize("base, sign", [(0.0, 1.0), (3.7, -1.0)])
+@pytest.mark.parametrize("x, n", [(1.3, 65), (0.2, 2), (0.0, 65), (1e-310, 65), (0.5, 1)])
+def test_points_along_piece_is_evaluate_over_numpys_linspace(i, base, sign, x, n):
+    g = _helix()
+    got = points_along_piece(g, i, base, sign, x, n)
+    assert np.array_equal(got, evaluate(g, np.full(n, i), base + sign * np.linspace(0.0, x, n)))
+    if i == 0:  # on the helix: 2 mm from its axis, at angle omega sigma, z = 0.5 + 0.6 sigma
+        sigma = base + sign * np.linspace(0.0, x, n)
+        np.testing.assert_allclose(np.hypot(got[:, 0] - 1, got[:, 1] + 1), 2.0, rtol=1e-14)
+        np.testing.assert_allclose(got[:, 0], 1 + 2 * np.cos(0.4 * sigma), atol=1e-14)
+        np.testing.assert_allclose(got[:, 2], 0.5 + 0.6 * sigma, atol=1e-14)
+
+
+@pytest.mark.parametrize("i", [0, 1])
+def test_point_tangent_is_evaluate_and_frame(i):
+    g = _helix()
+    for sigma in (0.0, 0.7, 5.25):
+        p, t = point_tangent(g, i, sigma)
+        assert np.array_equal(p, evaluate(g, np.array([i]), np.array([sigma]))[0])
+        assert np.array_equal(t, frame(g, np.array([i]), np.array([sigma]))[0][0])
+        assert np.linalg.norm(t) == pytest.approx(1.0, abs=1e-15)
+        if i == 0:  # d/dsigma of the helix: 0.8 (-sin, cos) about the axis, 0.6 along it
+            np.testing.assert_allclose(t, [-0.8 * np.sin(0.4 * sigma), 0.8 * np.cos(0.4 * sigma), 0.6], atol=1e-15)
+
+
+def test_arc_cubic_keeps_the_bits_of_clip_and_norm_and_makes_the_arcs_handles():
+    for k in range(2000):
+        a, b = RNG.normal(size=3) * 10 ** RNG.uniform(-3, 2), RNG.normal(size=3)
+        ta, tb = RNG.normal(size=3), RNG.normal(size=3)
+        ta, tb = ta / np.linalg.norm(ta), tb / np.linalg.norm(tb)
+        tb = ta.copy() if k % 3 == 0 else (-ta if k % 7 == 0 else tb)  # dot(ta, tb) at +-1 and beyond by rounding
+        phi = np.arccos(np.clip(np.dot(ta, tb), -1.0, 1.0))
+        h = np.linalg.norm(b - a) / (3.0 * np.cos(0.25 * phi) ** 2)
+        assert np.array_equal(arc_cubic(a, ta, b, tb), np.array([a, a + h * ta, b - h * tb, b]))
+    # a quarter circle of radius 1: the handles 4/3 tan(pi/8), the midpoint on the circle and at
+    # most 0.027253 % off it elsewhere (the known error of this cubic)
+    ctrl = arc_cubic(np.array([1.0, 0, 0]), np.array([0.0, 1, 0]), np.array([0.0, 1, 0]), np.array([-1.0, 0, 0]))
+    assert ctrl[1] == pytest.approx([1.0, 4 / 3 * np.tan(np.pi / 8), 0], abs=1e-15)
+    assert np.linalg.norm(_de_casteljau(ctrl, 0.5)) == pytest.approx(1.0, abs=1e-15)
+    radial = [np.linalg.norm(_de_casteljau(ctrl, u)) - 1 for u in np.linspace(0, 1, 2001)]
+    assert max(radial) == pytest.approx(2.7253e-4, abs=1e-8)
