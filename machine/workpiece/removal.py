@@ -11,10 +11,10 @@ STEP 1  Split the batch into runs, each within its deviation of one straight lin
         tools that bound them from below (bounds.run_table).
 STEP 2  List, per block of BLOCK x BLOCK tiles, the runs that reach it, in program order.
 STEP 3  Per tile, the listed runs its distance bound does not rule out (tiles.py).
-STEP 4  Per tile, the closest run first, then the others its planes do not rule out; per node, the exact
-        envelopes of the few segments near where each run's bound is least (tiles.py).
+STEP 4  Per tile, the runs passing closest first, then the others their planes do not rule out; per node,
+        the exact envelopes of the few segments near where each run's bound is least (tiles.py).
 
-Blocks are independent: the threads take every other block (nogil kernels). The heights are those of
+Blocks are independent: the threads take every other block of each chunk of CHUNK_BLOCKS (nogil kernels). The heights are those of
 evaluating every segment at every node, to the float32 rounding of the stored heights (tests/machine/
 test_workpiece.py checks it against the per-segment minimum).
 """
@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import time
 from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
 
 import numpy as np
 from numba import njit
@@ -33,6 +34,7 @@ from machine.workpiece.envelope import seg_distance
 from machine.workpiece.tiles import TILE, Batch, ZMap, cut_tile, workspace
 
 BLOCK = 4  # tiles along a block's side
+CHUNK_BLOCKS = 64  # blocks cut between two looks at how many threads may cut
 
 
 @njit(cache=True)
@@ -112,26 +114,40 @@ def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
                 cut_tile(ty, tx, zm, bt, starts, runs, mine, ws, counts)
 
 
-def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int = 1) -> float:
+def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int | Callable[[], int] = 1) -> float:
     """Lower zm.z along the batch's segments bt.pos[k] -> bt.pos[k+1]; zm.line[j, i] takes bt.lines[k] of the
     segment that set node (i, j). counts (COUNTS, updated): (block, run) pairs, searches, envelopes
-    evaluated, nodes lowered. Returns the CPU seconds of the threads that cut (this one's and the pool's):
-    the removal's own, whatever else the process runs meanwhile."""
+    evaluated, nodes lowered. threads: how many threads cut, or a callable asked again before each chunk of
+    CHUNK_BLOCKS blocks (the removal thread takes every core as soon as the run has ended, in the middle of
+    a batch). Returns the CPU seconds of the threads that cut (this one's and the pool's): the removal's
+    own, whatever else the process runs meanwhile."""
     c0 = time.thread_time()
     starts, runs, offsets, listed, touched = plan(zm, bt)
-    parts = [np.ascontiguousarray(touched[k::threads]) for k in range(threads)]
-    tallies = np.zeros((threads, counts.shape[0]), np.int64)
+    tallies: list[np.ndarray] = []  # one per thread that has cut
+    pool: ThreadPoolExecutor | None = None
+    pool_size, pool_cpu_s = 0, 0.0
 
-    def cut_part(k: int) -> float:
+    def cut_part(part: tuple[int, np.ndarray]) -> float:
         t0 = time.thread_time()
-        cut_blocks(parts[k], zm, bt, starts, runs, offsets, listed, tallies[k])
+        cut_blocks(part[1], zm, bt, starts, runs, offsets, listed, tallies[part[0]])
         return time.thread_time() - t0
 
-    if threads == 1:
-        cut_part(0)
-        pool_cpu_s = 0.0
-    else:
-        with ThreadPoolExecutor(threads) as pool:
-            pool_cpu_s = sum(pool.map(cut_part, range(threads)))
-    counts += tallies.sum(axis=0)
+    try:
+        for b0 in range(0, touched.shape[0], CHUNK_BLOCKS):
+            chunk = touched[b0:b0 + CHUNK_BLOCKS]
+            k = min(max(int(threads() if callable(threads) else threads), 1), chunk.shape[0])
+            tallies += [np.zeros(counts.shape[0], np.int64) for _ in range(k - len(tallies))]
+            if k == 1:
+                cut_part((0, chunk))
+                continue
+            if pool_size < k:
+                if pool is not None:
+                    pool.shutdown()
+                pool, pool_size = ThreadPoolExecutor(k, thread_name_prefix="vcnc-cut"), k
+            pool_cpu_s += sum(pool.map(cut_part, [(p, np.ascontiguousarray(chunk[p::k])) for p in range(k)]))
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    for tally in tallies:
+        counts += tally
     return time.thread_time() - c0 + pool_cpu_s

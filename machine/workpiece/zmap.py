@@ -12,8 +12,9 @@ order while the run goes on (the kernels release the GIL; removal.py answers for
 so the larger the batch, the fewer times a node is revisited); a tool change hands over what is kept
 first, and `surface` hands over the rest and waits for the thread. The heights do not depend on where
 the batches end: a node is the float32 rounding of the minimum over every segment, and rounding is
-monotone. While the run goes on the thread cuts on one core (the run has the other); what is left when
-`surface` is called is cut on every core. With `teeth` each write is cut at once, period by period
+monotone. While the run goes on the thread cuts on one core (the run has the other); from the moment
+`surface` is called, what is left is cut on every core, from the next chunk of blocks of the batch being
+cut (removal.cut asks between chunks). With `teeth` each write is cut at once, period by period
 (teeth.py), on the caller's thread.
 """
 from __future__ import annotations
@@ -150,8 +151,12 @@ class Workpiece:
     def _cut(self, batch: Batch) -> None:
         """On the removal thread."""
         t0 = time.perf_counter()
-        self._cut_cpu_s += cut(self._zmap(), batch, self.counts, self.threads if self._finishing else 1)
+        self._cut_cpu_s += cut(self._zmap(), batch, self.counts, self._cut_threads)
         self._cut_wall_s += time.perf_counter() - t0
+
+    def _cut_threads(self) -> int:
+        """While the run goes on the removal cuts on one core (the run has another), then on every core."""
+        return self.threads if self._finishing else 1
 
     def _drain(self) -> None:
         """Wait for the removal thread to cut every batch handed to it (its errors are raised here)."""

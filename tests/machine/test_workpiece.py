@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 from pathlib import Path
@@ -20,7 +21,7 @@ from machine.workpiece.envelope import envelope
 from machine.workpiece.removal import cut as cut_batch
 from machine.workpiece.tiles import COUNTS, TILE, Batch, ZMap
 from machine.workpiece.measure import profile_figures
-from machine.workpiece import zmap
+from machine.workpiece import removal, zmap
 
 F32_MM = 2e-6  # the heights are stored in float32: 1 nm steps at these heights, 2 nm allowed
 
@@ -288,8 +289,10 @@ def _paths(rng):
 
 # radii off the 1 um grid of the paths: no node lies exactly on a rim (where rounding decides a tangency)
 @pytest.mark.parametrize("core, corner", [(0.0, 1.5013), (1.0013, 0.0), (0.6013, 0.5)])
-def test_the_update_is_every_segment_at_every_node(core, corner):
-    """removal.cut (runs, bounds, tiles, threads) against the exhaustive definition, in two batches."""
+def test_the_update_is_every_segment_at_every_node(core, corner, monkeypatch):
+    """removal.cut (runs, bounds, tiles, threads) against the exhaustive definition, in two batches; also with
+    the number of threads changing between chunks of blocks, as when the run ends in the middle of a batch."""
+    monkeypatch.setattr(removal, "CHUNK_BLOCKS", 2)
     rng = np.random.default_rng(11)
     grid_mm, origin, floor_mm = 0.05, (0.0, 0.0), -2.0
     for path in _paths(rng):
@@ -301,7 +304,7 @@ def test_the_update_is_every_segment_at_every_node(core, corner):
         for pos, pos_lines, stamp in batches:
             _every_segment_at_every_node(want_z, want_line, origin, grid_mm, floor_mm, pos, pos_lines, core, corner,
                                          stamp)
-        for threads in (1, 2):
+        for threads in (1, 2, itertools.cycle((1, 2, 2, 1)).__next__):
             z = np.zeros(want_z.shape, np.float32)
             line = np.zeros(z.shape, np.int32)
             tile_max = np.zeros((-(-z.shape[0] // TILE), -(-z.shape[1] // TILE)))
