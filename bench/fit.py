@@ -1,6 +1,6 @@
 """Benchmark of issues 7 and 23: G01 (and G2/G3) chains -> G06.2 with 001's rational B-spline fit.
 
-    python bench/fit.py [conversion] [corpus] [rational] [compare] [--quick] [--no-cycle] [--jobs N]   (all parts by default)
+    python bench/fit.py [conversion] [corpus] [blend] [rational] [compare] [--quick] [--no-cycle] [--jobs N]   (all parts by default)
 
 conversion: at T = 5 um and 10 um, for g1_lhchips4.ngc, g1_stellabee1.ngc (its first
 STELLA_LINES lines: a deterministic part, the whole file takes too long to run here),
@@ -21,6 +21,10 @@ sharp, double knots where the weights restart, conic spans; kept: blocks outside
 and arcs included; sharp v: the chains' vertices that must stay sharp), and the median ratio over
 the real CAM finishing programs among them (FINISHING; g1_contour.ngc is a generated circle
 of 10000 chords, shown but not counted).
+blend: the corpus G01 programs that name their own blending tolerance (G64 P) fitted at it:
+blocks, deviation, cycle time before/after with its change, and the groups the controller's
+check refused (kept G01) - what a program that already lets the controller round its corners
+by P gains (bench only: vcnc fit's tolerance stays the user's).
 rational: the control points needed to reach T with the rational fit, the same fit without
 weights, and geomdl's non-rational `fitting.approximate_curve`.
 compare: `vcnc compare` on finish_g01.nc against finish_nurbs.nc.
@@ -28,6 +32,7 @@ compare: `vcnc compare` on finish_g01.nc against finish_nurbs.nc.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -162,6 +167,30 @@ def corpus_table(jobs: int | None = None) -> None:
         print(f"median block ratio over the {len(ratios)} finishing programs: {np.median(ratios):.2f}x (bar >= 3x)")
 
 
+def own_blend_table(jobs: int | None = None) -> None:
+    """The corpus G01 programs that name their own blending tolerance (G64 P, in mm under G21)
+    fitted at that tolerance: what the program already lets the controller do at its corners."""
+    import tempfile
+
+    print("\n== corpus G01 programs at their own G64 P (the rounding they already allow the controller)")
+    print(f"{'program':24s} {'P um':>5s} {'blocks':>17s} {'x':>6s} {'max dev um':>10s} {'fit s':>6s} "
+          f"{'cycle s, change':>21s} {'kept: refused':>13s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in sorted(CORPUS.glob("g1_*.ngc")):
+            text = path.read_bytes().decode("utf-8", "replace")
+            own = re.search(r"G64\s*P\s*([0-9.]+)", text, re.IGNORECASE)
+            if own is None or not re.search(r"G21", text):
+                continue
+            tol = float(own.group(1))
+            out, rep = convert_text(text, tol, file=path.name, jobs=jobs, walkable=_check(None))
+            before, after = (_cycle(t, None, Path(tmp), n)[0] for t, n in ((text, "b.nc"), (out, "a.nc")))
+            refused = sum("controller" in why for _, why in rep.kept_g01)
+            print(f"{path.name:24s} {tol * 1e3:5.0f} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} "
+                  f"{rep.blocks_before / rep.blocks_after:6.2f} {rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} "
+                  f"{before:6.1f}->{after:<6.1f} {100 * (after / before - 1):+5.1f}% {refused:13d}", flush=True)
+            assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
+
+
 def _group_blocks(text: str) -> int:
     """Blocks inside G06.2 groups: each group's G06.2 block and the K blocks that follow it."""
     count, inside = 0, False
@@ -260,12 +289,14 @@ def _jobs() -> int | None:
 def main() -> None:
     quick = "--quick" in sys.argv
     args = [a for i, a in enumerate(sys.argv[1:], 1) if sys.argv[i - 1] != "--jobs"]
-    parts = [a for a in args if not a.startswith("--")] or ["conversion", "corpus", "rational", "compare"]
+    parts = [a for a in args if not a.startswith("--")] or ["conversion", "corpus", "blend", "rational", "compare"]
     t0 = time.perf_counter()
     if "conversion" in parts:
         conversion_table(quick, cycle="--no-cycle" not in sys.argv, jobs=_jobs())
     if "corpus" in parts:
         corpus_table(_jobs())
+    if "blend" in parts:
+        own_blend_table(_jobs())
     if "rational" in parts:
         rational_table(quick)
     if "compare" in parts:
