@@ -57,7 +57,7 @@ MEDIAN_TOL_MM = 0.01
 from ipo.fit.tolerance import FitSettings, densify, fewest_ctrl  # noqa: E402
 from ipo.fit.g01_runs import run_vertices, split_runs  # noqa: E402
 from ipr import parse_text  # noqa: E402
-from ipo.fit.convert import convert_text  # noqa: E402
+from ipo.fit.convert import REFUSED, convert_text  # noqa: E402
 
 
 def freeform(n_lines: int = 30000) -> str:
@@ -184,7 +184,7 @@ def own_blend_table(jobs: int | None = None) -> None:
             tol = float(own.group(1))
             out, rep = convert_text(text, tol, file=path.name, jobs=jobs, walkable=_check(None))
             before, after = (_cycle(t, None, Path(tmp), n)[0] for t, n in ((text, "b.nc"), (out, "a.nc")))
-            refused = sum("controller" in why for _, why in rep.kept_g01)
+            refused = sum(why.startswith(REFUSED) for _, why in rep.kept_g01)
             print(f"{path.name:24s} {tol * 1e3:5.0f} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} "
                   f"{rep.blocks_before / rep.blocks_after:6.2f} {rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} "
                   f"{before:6.1f}->{after:<6.1f} {100 * (after / before - 1):+5.1f}% {refused:13d}", flush=True)

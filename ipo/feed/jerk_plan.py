@@ -7,9 +7,9 @@ always starts at an anchor) and the v^2 it must end with.
 
 1. Anchors (ipo.feed.jerk_anchors): the first and last sample, every stop, the ends of x_acc's
    valleys and of its plateaus that are not peaks, and where the path changes between straight
-   and curved. Speeds at anchors: at most sqrt(x_acc), acceleration zero. x_acc is first held to what the curvature allows with no
-   path acceleration, |kv_i| v^2 <= (1 - _CURVE_ROOM) A_i (the look-ahead may ride the
-   curvature cap with some).
+   and curved. Speeds at anchors: at most sqrt(x_acc), acceleration zero. x_acc is first held
+   to what the curvature allows with no path acceleration, |kv_i| v^2 <= (1 - _CURVE_ROOM) A_i
+   (the look-ahead may ride the curvature cap with some).
 2. Path limits of each gap between anchors: A_i / |t_i| and J_i / |t_i|, straight or curved,
    each times its own scale that starts at 1 (step 4 lowers them: where the curvature's terms
    leave a curve less, the checks find it with the terms as they are).

@@ -40,6 +40,7 @@ AXIS_LETTERS = frozenset("XYZ")
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
+REFUSED = "the controller cannot follow the group"  # why a group that fits is kept G1 (walkable said no)
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -307,7 +308,7 @@ def _group_for(span: Span, moves, feed_mm_s, frame, digits, tol_mm, sag_mm, repo
     if walkable is not None:
         why = walkable(Nurbs(moves[0].line, written.degree, written.knots, written.weights, written.points, feed_mm_s))
         if why is not None:
-            report.kept_g01.append((moves[0].line, f"the controller cannot follow the group: {why}"))
+            report.kept_g01.append((moves[0].line, f"{REFUSED}: {why}"))
             return None
     report.max_deviation_mm = max(report.max_deviation_mm, dev)
     return text

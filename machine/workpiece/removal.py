@@ -14,9 +14,9 @@ STEP 3  Per tile, the listed runs its distance bound does not rule out (tiles.py
 STEP 4  Per tile, the runs passing closest first, then the others their planes do not rule out; per node,
         the exact envelopes of the few segments near where each run's bound is least (tiles.py).
 
-Blocks are independent: the threads take every other block of each chunk of CHUNK_BLOCKS (nogil kernels). The heights are those of
-evaluating every segment at every node, to the float32 rounding of the stored heights (tests/machine/
-test_workpiece.py checks it against the per-segment minimum).
+Blocks are independent: the threads take every other block of each chunk of CHUNK_BLOCKS (nogil
+kernels). The heights are those of evaluating every segment at every node, to the float32 rounding of
+the stored heights (tests/machine/test_workpiece.py checks it against the per-segment minimum).
 """
 from __future__ import annotations
 
