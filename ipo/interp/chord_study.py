@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ipo.errors import STUDY, IpoError
-from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
 from ipo.interp.steppers import make_stepper
 from ipr.entities import MOTION_TYPES, Arc, Nurbs
 
@@ -131,6 +130,8 @@ def study(entities, step_mm: float, **options) -> ChordStudy:
 def pulse_study(entities, blu_mm: float, path_mm: np.ndarray) -> float:
     """Largest distance (BLU) of the reference-pulse path (000 §2.4) driven by the points
     path_mm from the exact geometry, sampled at blu/8 with a 0.01 % chord tolerance."""
+    from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses  # --pulse only: its kernels
+
     start_blu = np.rint(path_mm[0] / blu_mm).astype(np.int64)
     path = pulse_path(start_blu, pulses(path_mm[1:], blu_mm, start_blu))
     dense = study(entities, blu_mm / 8.0, method="recursive", chord_tol_pct=0.01).pos_mm
