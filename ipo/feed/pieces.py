@@ -211,7 +211,9 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     blend &= g2 | (radius >= min_blend_radius_mm)
     chain = np.zeros_like(blend)
     if g2_limits is not None:  # runs of small turns between lines: one curvature-continuous curve
-        runs = chain_runs(both & (theta > _COLLINEAR_RAD) & (theta < CHAIN_MAX_RAD),
+        # a quintic runs at the feed of the move before it, so a run keeps to moves of one feed
+        alike = (feed[:-1] == feed[1:]) & (rapid[:-1] == rapid[1:]) & (rpm[:-1] == rpm[1:])
+        runs = chain_runs(both & alike & (theta > _COLLINEAR_RAD) & (theta < CHAIN_MAX_RAD),
                           x_corner < np.minimum(feed[:-1], feed[1:]) ** 2)
         chain, chain_ctrl = g2_chains(start, unit, length, runs, tol[:-1], g2_limits)
         blend &= ~chain

@@ -6,6 +6,8 @@ differences of the per-period positions, and the run's worth against the same ru
 chains switched off."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -118,3 +120,23 @@ def test_noisy_curves_keep_the_limits_and_p_and_run_faster(seed, monkeypatch):
     assert_within_p(pos, ents, tol)
     np.testing.assert_allclose(pos[-1], ents[-1].end, atol=1e-6)
     assert len(pos) < len(without_chains(monkeypatch, ents))  # 0.885-0.99x on seeds 100-107
+
+
+def test_a_run_ends_where_the_feed_changes():
+    """A quintic runs at the feed of the move before it: the polygon of R 10 with F6000 on its
+    first 45 moves and F4800 after is two runs, so the quintics next to the change end flat
+    (curvature 0, scipy's derivatives) where their neighbours inside the runs meet at 1/10, and
+    the corner of the change gets no chain quintic (at most the line-line one, flat at both ends)."""
+    ang = np.radians(np.arange(0, 91))
+    pts = np.c_[10 * np.cos(ang), 10 * np.sin(ang), np.zeros(len(ang))]
+    ents = polyline(pts, 0.01, feed=100.0)
+    ents = ents[:45] + [dataclasses.replace(e, feed_mm_s=80.0) for e in ents[45:]]
+    _, quintics = built(ents)
+    ends = np.array([curvature(np.asarray(q.points, float), np.array([0.0, 1.0]))[1] for q in quintics])
+    mids = 0.5 * (pts[:-1] + pts[1:])
+    spans = [(int(np.argmin(np.linalg.norm(mids - q.points[0], axis=1))),
+              int(np.argmin(np.linalg.norm(mids - q.points[-1], axis=1)))) for q in quintics]
+    k = dict(zip(spans, ends))
+    assert k[(43, 44)][1] < 1e-9 and k[(45, 46)][0] < 1e-9  # the runs end flat at the change
+    assert k[(42, 43)][1] > 0.05 and k[(46, 47)][0] > 0.05
+    assert (44, 45) not in k or np.all(k[(44, 45)] < 1e-9)  # the corner itself: no chain quintic
