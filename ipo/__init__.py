@@ -22,6 +22,7 @@ events; `ipo.feed.profiles.plan_function` gives a planner profile's, e.g. the gr
 cheap; `ipo.kernel_cache` first points numba's cache at a directory keyed by the kernels' source
 (machine/ imports ipo before any kernel of its own).
 """
-from ipo.kernel_cache import use_source_keyed_cache
+from ipo.kernel_cache import spare_scipy_linalg, use_source_keyed_cache
 
 use_source_keyed_cache()
+spare_scipy_linalg()

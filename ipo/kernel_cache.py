@@ -13,10 +13,19 @@ the compiled kernels. The directory is
 `$XDG_CACHE_HOME/vcnc/kernels/<hash>` (`~/.cache/...`). `use_source_keyed_cache` runs from
 `ipo/__init__`, before any kernel module of ipo or machine is imported (machine imports ipo
 first); ipr alone (no ipo imported) keeps numba's default.
+
+Loading the first cached kernel of a process makes numba import its implementations, among them
+numba.np.arraymath, which checks at import that a BLAS is there for `np.dot` in kernels by
+importing scipy.linalg.cython_blas. That import runs the whole scipy.linalg package first:
+0.2-0.3 s of CPU in every vcnc process, a fifth of `vcnc interp`'s, for a package vcnc does
+not use. `spare_scipy_linalg` (also from `ipo/__init__`) loads the extension module alone,
+under its own name, so the check finds it; see there why that is the same module.
 """
 from __future__ import annotations
 
 import hashlib
+import importlib.machinery
+import importlib.util
 import os
 import re
 import shutil
@@ -157,3 +166,68 @@ def prune_other_versions(current: Path, older_than_s: float) -> tuple[int, int]:
         shutil.rmtree(other, ignore_errors=True)
         removed += 1
     return removed, freed
+
+
+_CYTHON_BLAS = "scipy.linalg.cython_blas"
+
+
+def spare_scipy_linalg() -> None:
+    """Have scipy.linalg.cython_blas loaded alone, without its package, when numba imports
+    numba.np.arraymath (see the module's docstring); nothing is loaded before then, so that
+    `vcnc --help` loads no numpy.
+
+    It is the module scipy's own import would load: the same file (found in scipy/linalg by the
+    standard path finder), and the same module object for numba's BLAS calls (numba._helperlib
+    imports it by name, from sys.modules) and for scipy's extension modules that cimport it.
+    Should scipy.linalg be imported later, the module is set on it as its own import would have
+    done. Nothing changes when scipy.linalg or numba's implementations are loaded already, and
+    any failure leaves the import to numba as before."""
+    if not any(m in sys.modules for m in ("scipy.linalg", _CYTHON_BLAS, "numba.np.arraymath")):
+        sys.meta_path.insert(0, _OnceFinder("numba.np.arraymath", _load_cython_blas))
+
+
+class _OnceFinder:
+    """A meta path finder that acts on the first import of one module, then leaves sys.meta_path
+    (a new list: the import under way keeps iterating the old one). `act(path, target)` returns
+    the module's spec, or None for the finders after it to find it."""
+
+    def __init__(self, name: str, act):
+        self.name, self.act = name, act
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname != self.name:
+            return None
+        sys.meta_path = [f for f in sys.meta_path if f is not self]
+        return self.act(path, target)
+
+
+def _load_cython_blas(path, target) -> None:
+    try:
+        import scipy
+
+        spec = importlib.machinery.PathFinder.find_spec(_CYTHON_BLAS, [os.path.join(scipy.__path__[0], "linalg")])
+        if spec is None:
+            return None
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[_CYTHON_BLAS] = module
+        spec.loader.exec_module(module)
+    except (ImportError, OSError):
+        sys.modules.pop(_CYTHON_BLAS, None)
+        return None
+    sys.meta_path.insert(0, _OnceFinder("scipy.linalg", _scipy_linalg_binding_cython_blas))
+    return None
+
+
+def _scipy_linalg_binding_cython_blas(path, target):
+    """scipy.linalg's spec as the path finder finds it, its loader also setting the preloaded
+    cython_blas on the package once it has run."""
+    spec = importlib.machinery.PathFinder.find_spec("scipy.linalg", path, target)
+    if spec is not None and spec.loader is not None:
+        run = spec.loader.exec_module
+
+        def exec_module(module):
+            run(module)
+            module.cython_blas = sys.modules[_CYTHON_BLAS]
+
+        spec.loader.exec_module = exec_module
+    return spec

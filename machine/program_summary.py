@@ -5,8 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from rich.console import Console
-from rich.table import Table
 
 from ipo.nurbs.kernel import arc_length
 from ipr.entities import PLANE_AXES, Arc, Dwell, Line, Nurbs, Rapid, group_by_type
@@ -74,6 +72,9 @@ class Summary:
         self._extend(hi)
 
     def print(self, file: str) -> None:
+        from rich.console import Console  # here: `vcnc interp` imports this module for path_length_mm alone
+        from rich.table import Table
+
         table = Table(title=f"vcnc parse {file}", show_header=False)
         table.add_column("figure", style="bold")
         table.add_column("value", justify="right")

@@ -3,7 +3,8 @@
 `vcnc --help` lists the commands from machine.cli.SHORT_HELP without importing their modules;
 these tests check that listing against each command's own docstring, that help loads none of
 the heavy libraries, and that `vcnc warmup` compiles every kernel a `vcnc run --plot` and a
-`vcnc interp` of the demo use, so those compile nothing.
+`vcnc interp` of the demo use, so those compile nothing, and that interp and run load no library
+they do not use.
 """
 from __future__ import annotations
 
@@ -22,10 +23,10 @@ ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numpy", "numba", "matplotlib", "lark", "rich")
 
 
-def _modules_loaded_by(args: list[str]) -> list[str]:
+def _modules_loaded_by(args: list[str], names: tuple[str, ...] = HEAVY) -> list[str]:
     code = ("import sys; from click.testing import CliRunner; from machine.cli import main; "
             f"r = CliRunner().invoke(main, {args!r}); assert r.exit_code == 0, r.output; "
-            f"print([m for m in {HEAVY!r} if m in sys.modules])")
+            f"print([m for m in {names!r} if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     return json.loads(out.stdout.replace("'", '"'))
 
@@ -42,6 +43,13 @@ def test_help_loads_no_heavy_library():
     assert _modules_loaded_by(["--help"]) == []
     for name in ("run", "parse", "plot", "stream", "warmup"):
         assert _modules_loaded_by([name, "--help"]) == [], name
+
+
+def test_interp_and_run_load_no_library_they_do_not_use():
+    # scipy.linalg: numba's BLAS check at its first kernel load (ipo.kernel_cache.spare_scipy_linalg);
+    # rich: vcnc parse's table, in the module interp takes path lengths from
+    assert _modules_loaded_by(["interp", "programs/demo.nc", "--json"], ("scipy.linalg", "rich", "matplotlib")) == []
+    assert _modules_loaded_by(["run", "programs/demo.nc", "--json"], ("scipy.linalg", "matplotlib")) == []
 
 
 def test_warmup_leaves_nothing_to_compile_for_the_demo(tmp_path):

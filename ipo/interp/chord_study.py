@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ipo.errors import STUDY, IpoError
-from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses
 from ipo.interp.steppers import make_stepper
 from ipr.entities import MOTION_TYPES, Arc, Nurbs
 
@@ -62,16 +61,52 @@ class ChordStudy:
         }
 
 
-def _step_entity(entity, step_mm: float, options: dict):
-    stepper = make_stepper(entity, **options)
-    steps = np.full(min(CHUNK, int(_length_bound_mm(entity) / step_mm) + 2), step_mm)
-    parts = []
-    while not stepper.done:
-        parts.append(stepper.advance(steps))
-    pos = np.concatenate([p.pos_mm for p in parts])
-    u = np.concatenate([p.u for p in parts])
-    evals = np.concatenate([p.evals for p in parts])
-    return pos, u, evals, getattr(stepper, "startup_evals", 0)
+def _grown(arrays: tuple, rows: int) -> tuple:
+    return tuple(np.concatenate([a, np.empty((rows - len(a),) + a.shape[1:], a.dtype)]) for a in arrays)
+
+
+def _step_all(motions: list, step_mm: float, options: dict) -> tuple:
+    """Every entity stepped into one path, written in place (no chunk is copied): the first
+    start point, then every period. Room is reserved for every entity's length bound (np.empty
+    only reserves it) and doubled should a curve take more periods than that.
+    Returns (pos, u, evals, ranges, seconds): ranges holds each entity with its rows [a, b) and
+    start-up evaluations; seconds is the wall time of the stepping."""
+    rows = 1 + sum(int(_length_bound_mm(e) / step_mm) + 2 for e in motions)
+    out = (np.empty((rows, 3)), np.empty(rows), np.empty(rows, dtype=np.int64))
+    out[0][0] = motions[0].start
+    out[1][0] = 0.0 if not isinstance(motions[0], Nurbs) else float(motions[0].knots[0])
+    steps = np.full(CHUNK, step_mm)
+    ranges = []
+    k = 1
+    t0 = time.perf_counter()
+    for e in motions:
+        stepper = make_stepper(e, **options)
+        a = k
+        while not stepper.done:
+            if k == len(out[1]):
+                out = _grown(out, 2 * k)
+            n = min(CHUNK, len(out[1]) - k)
+            k += len(stepper.advance(steps[:n], out=tuple(x[k:k + n] for x in out)).u)
+        ranges.append((e, a, k, stepper.startup_evals))
+    seconds = time.perf_counter() - t0
+    return *(x[:k] for x in out), ranges, seconds
+
+
+def _chord_dev(pos: np.ndarray, u: np.ndarray, ranges: list, step_mm: float) -> tuple[np.ndarray, int]:
+    """chord / D - 1 of every period but each entity's final clamped one, each entity's chords
+    measured from its own start point; and the periods whose parameter did not move forward."""
+    dev = np.empty(sum(max(b - a - 1, 0) for _, a, b, _ in ranges))
+    i = stalls = 0
+    for e, a, b, _ in ranges:
+        if b - a > 1:
+            dev[i] = np.linalg.norm((pos[a] - np.asarray(e.start, dtype=float))[None, :], axis=1)[0]
+            dev[i + 1:i + b - a - 1] = np.linalg.norm(np.diff(pos[a:b - 1], axis=0), axis=1)
+            i += b - a - 1
+            u0 = float(e.knots[0]) if isinstance(e, Nurbs) else 0.0
+            stalls += int(u[a] <= u0) + int((np.diff(u[a:b - 1]) <= 0).sum())
+    np.divide(dev, step_mm, out=dev)
+    np.subtract(dev, 1.0, out=dev)
+    return dev, stalls
 
 
 def study(entities, step_mm: float, **options) -> ChordStudy:
@@ -83,34 +118,20 @@ def study(entities, step_mm: float, **options) -> ChordStudy:
         raise IpoError(STUDY, "no motion to interpolate")
     for kind in {type(e) for e in motions}:  # load the compiled kernels outside the timed loop
         make_stepper(next(e for e in motions if type(e) is kind), **options).advance(np.full(2, step_mm))
-    pos_parts = [np.asarray(motions[0].start, dtype=float)[None, :]]
-    u_parts = [np.array([0.0 if not isinstance(motions[0], Nurbs) else float(motions[0].knots[0])])]
-    devs, nurbs_evals, startup = [], [], []
-    seconds = 0.0
-    steps = stalls = 0
-    for e in motions:
-        t0 = time.perf_counter()
-        pos, u, evals, s_evals = _step_entity(e, step_mm, options)
-        seconds += time.perf_counter() - t0
-        steps += len(u)
-        path = np.vstack([np.asarray(e.start, dtype=float)[None, :], pos])
-        chords = np.linalg.norm(np.diff(path, axis=0), axis=1)[:-1]
-        devs.append(chords / step_mm - 1.0)
-        u0 = float(e.knots[0]) if isinstance(e, Nurbs) else 0.0
-        stalls += int((np.diff(np.r_[u0, u])[:-1] <= 0).sum())
-        if isinstance(e, Nurbs):
-            nurbs_evals.append(evals)
-            startup.append(s_evals)
-        pos_parts.append(pos)
-        u_parts.append(u)
-    return ChordStudy(np.vstack(pos_parts), np.concatenate(u_parts), np.concatenate(devs),
-                      np.concatenate(nurbs_evals) if nurbs_evals else np.zeros(0, dtype=np.int64),
-                      np.array(startup, dtype=np.int64), steps, seconds, stalls)
+    pos, u, evals, ranges, seconds = _step_all(motions, step_mm, options)
+    dev, stalls = _chord_dev(pos, u, ranges, step_mm)
+    nurbs = [(evals[a:b], s_evals) for e, a, b, s_evals in ranges if isinstance(e, Nurbs)]
+    nurbs_evals = (nurbs[0][0] if len(nurbs) == 1 else np.concatenate([ev for ev, _ in nurbs]) if nurbs
+                   else np.zeros(0, dtype=np.int64))
+    return ChordStudy(pos, u, dev, nurbs_evals, np.array([s for _, s in nurbs], dtype=np.int64), len(u) - 1,
+                      seconds, stalls)
 
 
 def pulse_study(entities, blu_mm: float, path_mm: np.ndarray) -> float:
     """Largest distance (BLU) of the reference-pulse path (000 §2.4) driven by the points
     path_mm from the exact geometry, sampled at blu/8 with a 0.01 % chord tolerance."""
+    from ipo.interp.reference_pulse import pulse_deviation_blu, pulse_path, pulses  # --pulse only: its kernels
+
     start_blu = np.rint(path_mm[0] / blu_mm).astype(np.int64)
     path = pulse_path(start_blu, pulses(path_mm[1:], blu_mm, start_blu))
     dense = study(entities, blu_mm / 8.0, method="recursive", chord_tol_pct=0.01).pos_mm

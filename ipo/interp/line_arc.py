@@ -76,22 +76,37 @@ def _line_run(g, length, s0, steps, off, pos, u):
     return steps.shape[0], False, 0.0, s
 
 
+def output_arrays(n: int, out: tuple | None) -> tuple:
+    """Where advance() writes n periods: `out` = (pos (>= n, 3), u (>= n), evals (>= n)), C-contiguous
+    float64, float64 and int64 arrays the caller preallocated (the periods are written in place
+    and the returned Steps are views of them), or new arrays."""
+    if out is None:
+        return np.empty((n, 3)), np.empty(n), np.empty(n, dtype=np.int64)
+    pos, u, evals = out
+    for a, dtype, ndim in ((pos, np.float64, 2), (u, np.float64, 1), (evals, np.int64, 1)):
+        if not (a.dtype == dtype and a.ndim == ndim and a.shape[0] >= n and a.flags.c_contiguous):
+            raise ValueError(f"out arrays must be C-contiguous {dtype.__name__} with >= {n} rows")
+    if pos.shape[1] != 3:
+        raise ValueError(f"out's pos must have 3 columns, got {pos.shape[1]}")
+    return pos, u, evals
+
+
 class _ChunkStepper:
     """The stepper contract (ipo/contracts.py) around a compiled kernel `_run` that fills a
     whole chunk of periods and advances the subclass's own position state."""
 
-    def advance(self, steps_mm: np.ndarray) -> Steps:
+    def advance(self, steps_mm: np.ndarray, out: tuple | None = None) -> Steps:
         if self.done:
             raise RuntimeError(f"advance() called on a finished {type(self).__name__}")
         steps, off = _check_steps(steps_mm, self._lead, self._first)
         n = steps.shape[0]
-        pos = np.empty((n, 3))
-        u = np.empty(n)
+        pos, u, evals = output_arrays(n, out)
         k, done, carry = self._run(steps, off, pos, u)
+        evals[:k] = 0
         if n:
             self._first = False
         self.done = bool(done)
-        return Steps(pos[:k], u[:k], np.zeros(k, dtype=np.int64), self.done, float(carry))
+        return Steps(pos[:k], u[:k], evals[:k], self.done, float(carry))
 
 
 class LineStepper(_ChunkStepper):

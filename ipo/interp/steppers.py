@@ -19,8 +19,8 @@ import numpy as np
 from numba import njit
 
 from ipo.interp.constant_du import constant_du_step
-from ipo.interp.line_arc import ArcStepper, LineStepper
-from ipo.nurbs.compiled import SpanCurve, compile_curve, poly_derivs2
+from ipo.interp.line_arc import ArcStepper, LineStepper, output_arrays
+from ipo.nurbs.compiled import SpanCurve, compile_curve, dist3, poly_derivs2, poly_point, poly_span
 from ipo.contracts import Steps
 from ipo.errors import NURBS_DATA, IpoError
 from ipo.interp.recursive import STARTUP_CAP, ChordRule, eq9, predict_ratio, recursive_step
@@ -62,12 +62,58 @@ def _walk_tuples(curve, opts, st, ist, der, steps, pos, uo, evo):
 
 
 @njit(cache=True)
+def _paper_run(curve, n1, st, ist, steps, j, pos, uo, evo):
+    """The steady state of the recursive paper mode (000 eq. 8-9: n1 evaluations a period) from
+    period j on, with the state in registers: twice the periods per second of a general
+    period. It leaves to _walk, at the period it returns, whatever is not that steady state
+    (a step <= 0, a trial at or past the end, a chord too short to learn from); every period
+    it takes is the one _walk would have taken, bit for bit."""
+    breaks, inv_h, coef, u_max = curve.breaks, curve.inv_h, curve.coef, curve.u_max
+    u, px, py, pz = st[_U], st[_PX], st[_PY], st[_PZ]
+    g1, s1, g2, s2 = st[_G1], st[_S1], st[_G2], st[_S2]
+    span = ist[_SPAN]
+    x = y = z = s = 0.0
+    while j < steps.shape[0]:
+        d = steps[j]
+        if d <= 0.0:
+            break
+        g = eq9(d, g1, s1)  # 000 eq. 8
+        for k in range(n1):
+            if k > 0:
+                g = eq9(d, g, s)  # 000 eq. 9
+            if g >= u_max - u:
+                break
+            span = poly_span(breaks, u + g, span)
+            x, y, z = poly_point(breaks, inv_h, coef, span, u + g)
+            s = dist3(px, py, pz, x, y, z)
+        if g >= u_max - u or u + g >= u_max or not s > _RATIO_MIN_MM:
+            break
+        pos[j, 0], pos[j, 1], pos[j, 2] = x, y, z
+        u += g
+        uo[j] = u
+        evo[j] = n1
+        px, py, pz = x, y, z
+        g2, s2, g1, s1 = g1, s1, g, s
+        j += 1
+    st[_U], st[_PX], st[_PY], st[_PZ] = u, px, py, pz
+    st[_G1], st[_S1], st[_G2], st[_S2] = g1, s1, g2, s2
+    ist[_SPAN] = span
+    return j
+
+
+@njit(cache=True)
 def _walk(curve, opts, st, ist, der, steps, pos, uo, evo):
     """Step the curve (SpanCurve) through `steps` with the update of opts (WalkOptions),
     from the state st, ist, der, into pos, uo, evo; returns (periods, done, carry_mm)."""
     method, chord_tol, u_min, u_max = opts.method, opts.chord_tol, curve.u_min, curve.u_max
     breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
-    for j in range(steps.shape[0]):
+    paper = method == _RECURSIVE and chord_tol < 0.0 and curve.polygon_mm > 0.0
+    j = 0
+    while j < steps.shape[0]:
+        if paper and ist[_STARTED] == 1 and st[_LEAD] <= 0.0:
+            j = _paper_run(curve, opts.n1, st, ist, steps, j, pos, uo, evo)
+            if j == steps.shape[0]:
+                break
         d = steps[j]
         if st[_LEAD] > 0.0:
             d = max(d - st[_LEAD], 0.0)
@@ -78,6 +124,7 @@ def _walk(curve, opts, st, ist, der, steps, pos, uo, evo):
             pos[j, 0], pos[j, 1], pos[j, 2] = px, py, pz
             uo[j] = u
             evo[j] = 0
+            j += 1
             continue
         if curve.polygon_mm <= 0.0:  # every control point equal: the curve is a point
             pos[j, 0], pos[j, 1], pos[j, 2] = end[0], end[1], end[2]
@@ -141,6 +188,7 @@ def _walk(curve, opts, st, ist, der, steps, pos, uo, evo):
         elif d > _RATIO_MIN_MM:  # no motion: the curve stands still here; twice the increment next time
             st[_G1], st[_S1] = 2.0 * g, d
             st[_S2] = 0.0
+        j += 1
     return steps.shape[0], False, 0.0
 
 
@@ -209,7 +257,8 @@ class NurbsStepper:
         """Curve evaluations spent by the start-up (000 eq. 10-14 or §2.2.1), output point included."""
         return int(self._ist[_STARTUP_EVALS])
 
-    def advance(self, steps_mm: np.ndarray) -> Steps:
+    def advance(self, steps_mm: np.ndarray, out: tuple | None = None) -> Steps:
+        """The next periods (ipo/contracts.py), written into `out` if given (line_arc.output_arrays)."""
         if self.done:
             raise RuntimeError("advance() called on a finished NurbsStepper")
         steps = np.ascontiguousarray(steps_mm, dtype=np.float64)
@@ -221,10 +270,7 @@ class NurbsStepper:
             if steps[0] < self._lead_check - _LEAD_NOISE_MM:
                 raise ValueError(f"first step {steps[0]} mm is shorter than lead_mm {self._lead_check} mm")
             self._lead_check = 0.0
-        n = steps.shape[0]
-        pos = np.empty((n, 3))
-        u = np.empty(n)
-        evals = np.empty(n, dtype=np.int64)
+        pos, u, evals = output_arrays(steps.shape[0], out)
         curve, opts = self._records
         k, done, carry = _walk_tuples(curve, opts, self._st, self._ist, self._der, steps, pos, u, evals)
         self.done = bool(done)

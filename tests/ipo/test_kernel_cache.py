@@ -63,3 +63,37 @@ def test_prune_keeps_recent_caches_and_removes_old_ones(tmp_path):
     os.utime(old / "sub" / "k.nbc", (0, 0))
     assert kernel_cache.prune_other_versions(current, older_than_s=3600) == (1, 1000)
     assert current.exists() and recent.exists() and not old.exists()
+
+
+BLAS_CHECK = """
+import sys
+import numpy as np
+import ipo
+from ipo.nurbs.compiled import dist3
+dist3(0.0, 0.0, 0.0, 1.0, 1.0, 1.0)  # the first kernel load: numba imports its implementations
+import numba.np.arraymath
+print(numba.np.arraymath._HAVE_BLAS, "scipy.linalg" in sys.modules)
+from numba import njit
+dot = njit(lambda a, b: np.dot(a, b))
+rng = np.random.default_rng(3)
+a, b = rng.normal(size=(2, 10_000)) * np.logspace(0, 12, 10_000)
+acc = 0.0
+for x, y in zip(a.tolist(), b.tolist()):
+    acc += x * y  # numba's np.dot without a BLAS: a plain loop
+import scipy.linalg
+import scipy.linalg.cython_blas
+from scipy.linalg import blas
+print(dot(a, b) == blas.ddot(a, b), dot(a, b) == acc, scipy.linalg.cython_blas is sys.modules["scipy.linalg.cython_blas"])
+print(scipy.linalg.solve(np.diag([2.0, 4.0]), np.ones(2)).tolist())
+"""
+
+
+def test_numba_finds_its_blas_without_importing_scipy_linalg():
+    """ipo loads scipy.linalg.cython_blas alone (kernel_cache.spare_scipy_linalg): numba's BLAS
+    check passes, a kernel's np.dot is scipy's BLAS ddot bit for bit (not numba's loop for a
+    missing BLAS), and scipy.linalg imported later works and holds the same module."""
+    out = subprocess.run([sys.executable, "-c", BLAS_CHECK], capture_output=True, text=True, check=True,
+                         cwd=ROOT).stdout.split("\n")
+    assert out[0] == "True False"  # BLAS found, scipy.linalg not imported
+    assert out[1] == "True False True"
+    assert out[2] == "[0.5, 0.25]"
