@@ -10,8 +10,8 @@ machine stands).
   curve the planner cannot follow).
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
   the corners next to arcs and NURBS (`curve_corner`), the curvature-continuous corners of S-curve mode
-  (`curvature_continuous` between lines, `g2_joints` next to arcs and NURBS) and their
-  compiled kernels (`compiled`).
+  (`curvature_continuous` between lines, `g2_chains` through runs of short lines, `g2_joints` next
+  to arcs and NURBS) and their compiled kernels (`compiled`).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
 - `analytic`: the analytic pieces' points, tangents and curvature by arc length, compiled;
   `arcs`: G2/G3 arcs laid out as such pieces (and trimmed by their blends), compiled.

@@ -21,7 +21,8 @@ corner between two lines gets a curvature-continuous quintic within P instead of
 (ipo.feed.blends.curvature_continuous): the arc's curvature steps cap v^2 / R <= J T. Likewise
 a joint next to an arc or a NURBS, tangent or at a corner, gets a quintic that matches the
 curvature of both moves (ipo.feed.blends.g2_joints) where that beats crossing the curvature
-step, the cubic, or a stop. G61 and P0 corners,
+step, the cubic, or a stop; and a run of small turns between lines becomes one curve of such
+quintics from move midpoint to midpoint (ipo.feed.blends.g2_chains). G61 and P0 corners,
 reversals and corners where no blend fits are not blended: the planner crosses them within
 one period at the corner cap (ipo.feed.cap_kernels.geometric_caps).
 """
@@ -35,6 +36,7 @@ import numpy as np
 from ipo.nurbs import kernel as nk
 from ipo.errors import ARC_RADIUS, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_points, g2_corners
+from ipo.feed.blends.g2_chains import CHAIN_MAX_RAD, chain_runs, g2_chains
 from ipo.feed.blends.g2_joints import g2_joint
 from ipo.feed.blends.curve_corner import Side, corner_blend
 from ipo.feed.analytic import Geometry, frame, point_tangent, points_along_piece
@@ -200,15 +202,23 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     with np.errstate(divide="ignore"):  # a turn so slight that sec = 1 in floats: any R is within P
         r_tol = tol[:-1] / (1.0 / np.cos(half) - 1.0)  # deviation R (sec(theta/2) - 1) <= P
     radius = np.where(blend, np.minimum(r_tol, avail / np.tan(half)), 0.0)
-    g2, d_g2 = np.zeros_like(blend), np.zeros(n - 1)
+    g2, d_g2, x_corner = np.zeros_like(blend), np.zeros(n - 1), np.zeros(n - 1)
     if g2_limits is not None:
         # the held-back last move's end corner is not known yet: taken as one that fills its half
-        g2, d_g2 = g2_corners(2.0 * half, tol[:-1], avail, radius, blend & (radius >= min_blend_radius_mm),
-                              length, lead_trim_mm, 0.0 if final else 0.5 * length[-1], g2_limits)
+        g2, d_g2, x_corner = g2_corners(2.0 * half, tol[:-1], avail, radius, blend & (radius >= min_blend_radius_mm),
+                                        length, lead_trim_mm, 0.0 if final else 0.5 * length[-1], g2_limits)
         g2 &= blend
     blend &= g2 | (radius >= min_blend_radius_mm)
+    chain = np.zeros_like(blend)
+    if g2_limits is not None:  # runs of small turns between lines: one curvature-continuous curve
+        runs = chain_runs(both & (theta > _COLLINEAR_RAD) & (theta < CHAIN_MAX_RAD),
+                          x_corner < np.minimum(feed[:-1], feed[1:]) ** 2)
+        chain, chain_ctrl = g2_chains(start, unit, length, runs, tol[:-1], g2_limits)
+        blend &= ~chain
+        g2 &= ~chain
     radius = np.where(blend, radius, 0.0)
     d = np.where(g2, d_g2, radius * np.tan(half))
+    d = np.where(chain, 0.5 * length[:-1], d)
     # a corner next to an arc or a NURBS gets a cubic blend from the point d before it to the
     # point d after it, tangent to both moves, with the handles of a circular arc: sized like the
     # circular blend between lines, then checked against the moves (which bend within d) and
@@ -223,7 +233,9 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
         if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
             d[j], bezier_blends[j] = found
-    d_after = d.copy()
+    d_after = np.where(chain, 0.5 * length[1:], d)
+    for j in np.nonzero(chain)[0]:
+        bezier_blends[j] = chain_ctrl[j]
     if g2_limits is not None:  # S-curve mode: joints next to arcs and NURBS curvature-continuous where faster
         cubic_r = np.zeros(n - 1)
         for j in bezier_blends:

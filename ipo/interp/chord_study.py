@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from math import sqrt
 
 import numpy as np
+from numba import njit
 
 from ipo.errors import STUDY, IpoError
 from ipo.interp.steppers import make_stepper
@@ -92,21 +94,31 @@ def _step_all(motions: list, step_mm: float, options: dict) -> tuple:
     return *(x[:k] for x in out), ranges, seconds
 
 
+@njit(cache=True)
+def _entity_chords(start, u0, pos, u, step_mm, dev):
+    """dev[i] = chord / D - 1 of the entity's periods i < len(dev), the first chord from its
+    start point; returns the periods among them whose parameter did not move forward (from u0)."""
+    px, py, pz, pu = start[0], start[1], start[2], u0
+    stalls = 0
+    for i in range(dev.shape[0]):
+        dx, dy, dz = pos[i, 0] - px, pos[i, 1] - py, pos[i, 2] - pz
+        dev[i] = sqrt(dx * dx + dy * dy + dz * dz) / step_mm - 1.0
+        stalls += u[i] <= pu
+        px, py, pz, pu = pos[i, 0], pos[i, 1], pos[i, 2], u[i]
+    return stalls
+
+
 def _chord_dev(pos: np.ndarray, u: np.ndarray, ranges: list, step_mm: float) -> tuple[np.ndarray, int]:
     """chord / D - 1 of every period but each entity's final clamped one, each entity's chords
     measured from its own start point; and the periods whose parameter did not move forward."""
     dev = np.empty(sum(max(b - a - 1, 0) for _, a, b, _ in ranges))
     i = stalls = 0
     for e, a, b, _ in ranges:
-        if b - a > 1:
-            dev[i] = np.linalg.norm((pos[a] - np.asarray(e.start, dtype=float))[None, :], axis=1)[0]
-            dev[i + 1:i + b - a - 1] = np.linalg.norm(np.diff(pos[a:b - 1], axis=0), axis=1)
-            i += b - a - 1
-            u0 = float(e.knots[0]) if isinstance(e, Nurbs) else 0.0
-            stalls += int(u[a] <= u0) + int((np.diff(u[a:b - 1]) <= 0).sum())
-    np.divide(dev, step_mm, out=dev)
-    np.subtract(dev, 1.0, out=dev)
-    return dev, stalls
+        n = max(b - a - 1, 0)
+        u0 = float(e.knots[0]) if isinstance(e, Nurbs) else 0.0
+        stalls += _entity_chords(np.asarray(e.start, dtype=float), u0, pos[a:b], u[a:b], step_mm, dev[i:i + n])
+        i += n
+    return dev, int(stalls)
 
 
 def study(entities, step_mm: float, **options) -> ChordStudy:

@@ -94,9 +94,10 @@ def arc_blend_x(radius_mm: np.ndarray, kappa_step: np.ndarray, a_mm_s2: float, j
 
 def g2_corners(theta: np.ndarray, tol_mm: np.ndarray, avail_mm: np.ndarray, arc_radius_mm: np.ndarray,
                arc_ok: np.ndarray, length_mm: np.ndarray, lead_trim_mm: float, tail_trim_mm: float,
-               limits: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+               limits: tuple[float, float, float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which of the J corners between J + 1 moves (of lengths length_mm) take the quintic,
-    and its reach d (g2_reach_mm); lead_trim_mm / tail_trim_mm are what blends outside
+    its reach d (g2_reach_mm) and the cap on v^2 of the blend each corner takes (0 where it
+    stops); lead_trim_mm / tail_trim_mm are what blends outside
     take of the first / last move. Where its cap (g2_corner_x) is at least x_min, the cap
     below which stopping is faster, and at least the circular blend's (arc_blend_x; 0 where
     arc_ok is False: that corner would stop). limits = (a, j, x_min, step) as from
@@ -122,4 +123,4 @@ def g2_corners(theta: np.ndarray, tol_mm: np.ndarray, avail_mm: np.ndarray, arc_
                  for g, k in ((gap[:-1], before), (gap[1:], after))]
         x_arc = np.where(arc_ok, arc_blend_x(arc_radius_mm, np.maximum(*steps), a, j, step), 0.0)
         g2 = x_g2 >= np.maximum(x_min, x_arc)
-    return g2, d
+    return g2, d, np.where(g2, x_g2, x_arc)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
+import ipo.feed.pieces as pieces
 from ipo.feed.intake import CornerRules
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.blends.curvature_continuous import arc_blend_x, g2_corner_x
@@ -188,13 +189,15 @@ def test_quintic_table_and_points_by_arc_length_against_scipy():
     np.testing.assert_allclose(tab.points_at(e, s), want, atol=ARC_TOL_MM)
 
 
-def test_polyline_along_a_curve_keeps_its_chained_arcs():
-    """A 1-degree polygon of 0.17 mm moves (circle360's kind) under G64 P0.01 in S-curve mode:
+def test_polyline_along_a_curve_keeps_its_chained_arcs(monkeypatch):
+    """A 1-degree polygon of 0.17 mm moves (circle360's kind) under G64 P0.01 in S-curve mode,
+    corner by corner (the run's chain, ipo.feed.blends.g2_chains, switched off):
     the arcs fill half of each move and meet each other at the same curvature, so they stay
     arcs of the polygon's radius (a quintic chain returns to curvature 0 at every join); only
     the first and last corner, which meet a straight, and their neighbours (which then meet a
     quintic's flat end: g2_corners decides twice) may take the quintic. An isolated 10-degree
     corner between 10 mm lines takes it."""
+    monkeypatch.setattr(pieces, "chain_runs", lambda small, slow: np.zeros(len(small), bool))
     planner = FeedPlanner(SCURVE)
     limits = planner.corners._asdict()
     ang = np.radians(np.arange(0, 91))

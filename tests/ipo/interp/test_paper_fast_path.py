@@ -130,3 +130,14 @@ def test_study_chords_start_at_each_entitys_own_start():
     assert at == len(s.u) and len(s.nurbs_evals) == n  # the NURBS's periods only
     np.testing.assert_array_equal(s.pos_mm[0], program[0].start)
     np.testing.assert_array_equal(s.pos_mm[-1], WAVY.points[-1])
+
+
+def test_entity_chords_by_hand():
+    """Chords from the start point (1, 2, 2) then point to point, D = 3; the parameter stalls
+    once (0.5 -> 0.5) and steps back once (0.7 -> 0.6); the last period is not measured."""
+    pos = np.array([[1, 2, 5], [1, 2, 5], [4, 6, 5], [4, 6, 5 + 6], [0, 0, 0]], dtype=float)
+    u = np.array([0.5, 0.5, 0.7, 0.6, 0.1])
+    dev = np.empty(4)
+    stalls = chord_study._entity_chords(np.array([1.0, 2.0, 2.0]), 0.25, pos, u, 3.0, dev)
+    np.testing.assert_array_equal(dev, [0.0, -1.0, 5 / 3 - 1, 1.0])
+    assert stalls == 2
