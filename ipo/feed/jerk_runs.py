@@ -14,7 +14,8 @@ speeds, no peak, and the highest limits up to the run's nominal ones that pass e
 4 (the lowest that still fit the run's length give the lowest speed everywhere along it, so they
 are tried before the bisection); it is kept only where that is quicker, else its halves are tried.
 The end anchors keep their speeds and zero acceleration, so no other gap changes. An anchor where
-the curvature steps at a piece joint stays: the checks charge a step's jerk at a gap's ends only.
+the curvature steps at a piece joint stays (the checks charge a step's jerk at a gap's ends only),
+unless the step is rounding (a curvature-continuous joint's, 1e-11 / mm).
 """
 from __future__ import annotations
 
@@ -23,12 +24,14 @@ from numba import njit
 
 from ipo.feed.jerk_checks import Segment, check, nominal
 from ipo.feed.jerk_profile import phases, transition_distance
+from ipo.feed.limits import STEP_JERK_SHARE
 
 _RUN_STEPS = 5  # of the bisection on a merged run's limits
 _FIT_STEPS = 30  # of the search for the lowest limits that fit the run's length
 _RISE = 0.1  # a peak this much (relative) over the higher end speed is no rise
 _GAIN_S = 1e-6  # s; a merge must be quicker than its gaps by this much
 _TRY_MIN_S = 2e-5  # s; a run its nominal limits would make quicker by less is not tried
+_STEP_NEGLIGIBLE = 1e-6
 
 
 @njit(cache=True)
@@ -44,12 +47,13 @@ def _direction(w, vp, length):
 
 
 @njit(cache=True)
-def _joint_step(s, kv, k):
-    """Whether sample k is a piece joint where the curvature steps (two samples at one arc length)."""
+def _joint_step(s, kv, k, dkv_max):
+    """Whether sample k is a piece joint (two samples at one arc length) where the curvature steps
+    by more than dkv_max (a curvature-continuous joint steps by rounding, 1e-11 / mm)."""
     for o in (k - 1, k + 1):
         if 0 <= o < s.shape[0] and abs(s[o] - s[k]) <= 1e-9:
             for i in range(3):
-                if kv[o, i] != kv[k, i]:
+                if abs(kv[o, i] - kv[k, i]) > dkv_max:
                     return True
     return False
 
@@ -105,6 +109,9 @@ def merge_runs(geo, rate, x, lim, curved, idx, w, vp, ag, jg):
     checks as in step 4): the plan with its monotone runs merged where that is quicker."""
     s, kv = geo.s, geo.kv
     m = idx.shape[0]
+    # a step whose jerk STEP_JERK_SHARE v^2 |dkv| / T stays below _STEP_NEGLIGIBLE of the smallest
+    # axis jerk at the window's highest speed is rounding, not a step
+    dkv_max = _STEP_NEGLIGIBLE * lim.j_axis.min() * lim.period_s / (STEP_JERK_SHARE * max(x.max(), 1e-300))
     keep = np.ones(m, np.bool_)
     vp, ag, jg = vp.copy(), ag.copy(), jg.copy()
     stack = np.empty((max(m, 1), 2), np.int64)
@@ -112,7 +119,8 @@ def merge_runs(geo, rate, x, lim, curved, idx, w, vp, ag, jg):
     while g < m - 1:
         d = _direction(w[g:g + 2], vp[g], s[idx[g + 1]] - s[idx[g]])
         e = g + 1
-        while d != 0 and e < m - 1 and curved[idx[e]] == curved[idx[g]] and not _joint_step(s, kv, idx[e]):
+        while d != 0 and e < m - 1 and curved[idx[e]] == curved[idx[g]] and \
+                not _joint_step(s, kv, idx[e], dkv_max):
             de = _direction(w[e:e + 2], vp[e], s[idx[e + 1]] - s[idx[e]])
             if de == 0 or (de != 2 and d != 2 and de != d):
                 break
