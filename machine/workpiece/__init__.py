@@ -9,6 +9,7 @@ back a Surface, and nothing in the drive or the controller depends on it.
 - chains.py: numba: runs of period positions within a thin sleeve around one straight line.
 - bounds.py: numba: lower bounds of a run's envelope (a dilated tool on its line, its tangent planes).
 - tiles.py: numba: the update of one tile of nodes from the runs that reach it.
+- search.py: numba: the exact envelopes of a run's segments at a tile's nodes, per node or all at once.
 - removal.py: the update of the Z-map by a batch of periods (runs, blocks, threads).
 - teeth.py: numba: the update by the flutes' edges at the spindle angle, period by period (--teeth).
 - zmap.py: Workpiece (the receiver: heights, the line that cut each node, tool changes) and Surface.

@@ -104,21 +104,20 @@ def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_ou
     a = max(dx * dx + dy * dy, 1e-300)  # a vertical line: t is then 0 or 1 by the sign of zl's numerator
     l2 = a + dz * dz
     top = az + r - run[DROP]
-    for j in range(nj):
-        qy = origin_y + (j0 + j) * grid_mm
-        for i in range(ni):
-            qx = origin_x + (i0 + i) * grid_mm
-            px, py = qx - ax, qy - ay
-            pp = px * px + py * py
-            k = px * dx + py * dy
-            b = -k * dz
-            c = (pp - r2) * l2 - k * k
-            disc = b * b - a * c
-            sq = math.sqrt(max(disc, 0.0))
-            zl = -(b + sq) / a if b > 0.0 else c / max(sq - b, 1e-300) if sq - b > 0.0 else -b / a
-            t = min(max((k + zl * dz) / l2, 0.0), 1.0)
-            ex, ey = px - t * dx, py - t * dy
-            w = r2 - (ex * ex + ey * ey)
-            v = top + t * dz - math.sqrt(max(w, 0.0))
-            g_out[j * ni + i] = max(v, floor_mm) if disc >= 0.0 and w >= 0.0 else np.inf
-            s_out[j * ni + i] = t
+    for m in range(ni * nj):  # one loop: a row of 8 nodes is too short for the vector loop (2.5x slower)
+        qy = origin_y + (j0 + m // ni) * grid_mm
+        qx = origin_x + (i0 + m % ni) * grid_mm
+        px, py = qx - ax, qy - ay
+        pp = px * px + py * py
+        k = px * dx + py * dy
+        b = -k * dz
+        c = (pp - r2) * l2 - k * k
+        disc = b * b - a * c
+        sq = math.sqrt(max(disc, 0.0))
+        zl = -(b + sq) / a if b > 0.0 else c / max(sq - b, 1e-300) if sq - b > 0.0 else -b / a
+        t = min(max((k + zl * dz) / l2, 0.0), 1.0)
+        ex, ey = px - t * dx, py - t * dy
+        w = r2 - (ex * ex + ey * ey)
+        v = top + t * dz - math.sqrt(max(w, 0.0))
+        g_out[m] = max(v, floor_mm) if disc >= 0.0 and w >= 0.0 else np.inf
+        s_out[m] = t

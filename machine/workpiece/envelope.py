@@ -84,39 +84,42 @@ def _sphere(qx, qy, x, y, z, r):
     return z + r - math.sqrt(r * r - rho2) if rho2 <= r * r else np.inf
 
 
-@njit(cache=True)
-def env_ball(qx, qy, x0, y0, z0, x1, y1, z1, r):
-    # The lowest point of the infinite cylinder of radius r about the line of sphere centres, on the
-    # vertical through q: |w|^2 - (w.D)^2/|D|^2 = r^2 with w = (q - c0, Z), Z the height above the first
-    # centre, a Z^2 + 2 b Z + c = 0, the lower root taken without cancellation. Its foot t on the line
-    # minimises g over all t (no ball on the line goes lower there), so g, convex, is least on [0, 1] at
-    # t clamped into it: the cylinder inside, else the nearer end sphere.
+@njit(cache=True, inline="always")
+def ball_slanted(qx, qy, x0, y0, z0, x1, y1, z1, r):
+    """env_ball for a segment that is not vertical, with selects in place of branches, so that a loop of it
+    over nodes runs on the CPU's vector units (tiles.sweep_ball); the same arithmetic as branches would do.
+    The lowest point of the infinite cylinder of radius r about the line of sphere centres, on the
+    vertical through q: |w|^2 - (w.D)^2/|D|^2 = r^2 with w = (q - c0, Z), Z the height above the first
+    centre, a Z^2 + 2 b Z + c = 0, the lower root taken without cancellation. Its foot t on the line
+    minimises g over all t (no ball on the line goes lower there), so g, convex, is least on [0, 1] at t
+    clamped into it: the cylinder inside, else the nearer end sphere."""
     dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
     a = dx * dx + dy * dy
-    if a <= TINY_MM2:
-        v0, v1 = _sphere(qx, qy, x0, y0, z0, r), _sphere(qx, qy, x1, y1, z1, r)
-        return (v0, 0.0) if v0 <= v1 else (v1, 1.0)
     ax, ay = qx - x0, qy - y0
     l2 = a + dz * dz
     k = ax * dx + ay * dy
     b = -k * dz
     c = (ax * ax + ay * ay - r * r) * l2 - k * k
     disc = b * b - a * c
-    if disc < 0.0:
-        return np.inf, 0.0
-    sq = math.sqrt(disc)
-    if b > 0.0:
-        zl = -(b + sq) / a
-    elif sq - b > 0.0:
-        zl = c / (sq - b)
-    else:
-        zl = -b / a  # b = sq = 0: q on the cylinder's rim line, the double root
+    sq = math.sqrt(max(disc, 0.0))
+    rising = sq - b > 0.0
+    # b > 0: -(b + sq) / a; else c / (sq - b); b = sq = 0 (q on the cylinder's rim line): the double root -b / a
+    zl = (-(b + sq) if b > 0.0 else c if rising else -b) / (a if b > 0.0 else sq - b if rising else a)
     t = (k + zl * dz) / l2
-    if t < 0.0:
-        return _sphere(qx, qy, x0, y0, z0, r), 0.0
-    if t > 1.0:
-        return _sphere(qx, qy, x1, y1, z1, r), 1.0
-    return z0 + r + zl, t
+    ex, ey, ez = (x0, y0, z0) if t < 0.0 else (x1, y1, z1)
+    rho2 = (qx - ex) ** 2 + (qy - ey) ** 2
+    end = ez + r - math.sqrt(max(r * r - rho2, 0.0)) if rho2 <= r * r else np.inf
+    v = end if t < 0.0 or t > 1.0 else z0 + r + zl
+    return (v, min(max(t, 0.0), 1.0)) if disc >= 0.0 else (np.inf, 0.0)
+
+
+@njit(cache=True)
+def env_ball(qx, qy, x0, y0, z0, x1, y1, z1, r):
+    dx, dy = x1 - x0, y1 - y0
+    if dx * dx + dy * dy <= TINY_MM2:
+        v0, v1 = _sphere(qx, qy, x0, y0, z0, r), _sphere(qx, qy, x1, y1, z1, r)
+        return (v0, 0.0) if v0 <= v1 else (v1, 1.0)
+    return ball_slanted(qx, qy, x0, y0, z0, x1, y1, z1, r)
 
 
 @njit(cache=True)

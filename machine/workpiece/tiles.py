@@ -6,10 +6,10 @@ STEP 3  The runs listed for the tile's block that its distance bound min(z_A, z_
 STEP 4  First the group of runs whose key is within GROUP_MM of the lowest (the passes through the tile
         and next to it: they leave the nodes near their final heights), then each other run unless its
         distance bound is above the tile's highest node or its tangent plane of G* at the tile centre is
-        nowhere below a node (bounds.bound_plane: G* is convex in q). In each of the two, each node
-        searches the runs whose G* there is below its height, in the order of G*: the exact envelope of
-        the segment whose projection holds s*, then of its neighbours outwards while G at their near end
-        is below the node's best (G is convex along the line, so no further segment can be lower).
+        nowhere below a node (bounds.bound_plane: G* is convex in q). The group's runs, for a ball, one
+        after the other at every node at once (search.sweep_ball); the others, and every run of a flat or
+        a bull, per node: each node searches the runs whose G* there is below its height, in the order of
+        G* (search.search).
 A node's line is that of the first segment, in program order, that reached its new height: a segment
 takes a node that is lower, or as low by an earlier segment (ties between level passes are exact).
 """
@@ -23,7 +23,7 @@ from numba import njit
 
 from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, bound_line,
                                       bound_node, bound_plane, proj, run_row)
-from machine.workpiece.envelope import envelope
+from machine.workpiece.search import search, sweep_ball, wins
 
 TILE = 8  # nodes along a tile's side
 NODES = TILE * TILE
@@ -74,56 +74,8 @@ class Workspace(NamedTuple):
     s_star: np.ndarray
     order: np.ndarray
     kept: np.ndarray
-
-
-@njit(cache=True, inline="always")
-def _wins(v, k, best, idx):
-    """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
-    return v < best or (v == best and idx >= 0 and k < idx)
-
-
-@njit(cache=True, inline="always")
-def _try(qx, qy, k, best, idx, pos, tool, stamp):
-    """The exact envelope of segment k (a zero-length one only as the stream's very first); tool: (core,
-    corner, floor_mm)."""
-    x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
-    if x0 == x1 and y0 == y1 and z0 == z1 and not (stamp and k == 0):
-        return best, idx
-    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, tool[0], tool[1])[0], tool[2])
-    if _wins(v, k, best, idx):
-        return v, k
-    return best, idx
-
-
-@njit(cache=True, inline="always")
-def _search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
-    """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4);
-    tool: (core, corner, floor_mm)."""
-    qx, qy = q
-    floor_mm = tool[2]
-    if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
-        best, idx = _try(qx, qy, a, best, idx, pos, tool, stamp)
-        return best, idx, 1
-    lo, hi = a, b - 1
-    while lo < hi:
-        mid = (lo + hi + 1) // 2
-        if proj(pos, mid, run) <= s_star:
-            lo = mid
-        else:
-            hi = mid - 1
-    best, idx = _try(qx, qy, lo, best, idx, pos, tool, stamp)
-    n = 1
-    for k in range(lo + 1, b):
-        n += 1
-        if not _wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
-            break
-        best, idx = _try(qx, qy, k, best, idx, pos, tool, stamp)
-    for k in range(lo - 1, a - 1, -1):
-        n += 1
-        if not _wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
-            break
-        best, idx = _try(qx, qy, k, best, idx, pos, tool, stamp)
-    return best, idx, n
+    qx: np.ndarray  # the tile's nodes
+    qy: np.ndarray
 
 
 @njit(cache=True)
@@ -203,9 +155,9 @@ def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
 
 
 @njit(cache=True)
-def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
-    """Search the kept runs r0 .. r1-1 (ws.kept) at each node of the tile whose first node is (i0, j0), in
-    the order of their G* there; returns the tile's highest node."""
+def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
+    """Search the kept runs r0 .. r1-1 (ws.kept) at each node of the tile, in the order of their G* there;
+    returns the tile's highest node."""
     kept, best, idx, g_star, s_star, order = ws.kept, ws.best, ws.idx, ws.g_star, ws.s_star, ws.order
     pos, tool = bt.pos, (bt.core, bt.corner, zm.floor_mm)
     top = -np.inf
@@ -214,7 +166,7 @@ def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
             continue
         n = 0
         for r in range(r0, r1):  # the runs that may lower the node, sorted by G* (insertion: a few)
-            if _wins(g_star[r, m], starts[kept[r]], best[m], idx[m]):
+            if wins(g_star[r, m], starts[kept[r]], best[m], idx[m]):
                 k = n
                 while k > 0 and g_star[order[k - 1], m] > g_star[r, m]:
                     order[k] = order[k - 1]
@@ -225,15 +177,29 @@ def _search_nodes(r0, r1, i0, j0, zm, bt, starts, runs, ws, counts):
             r = order[k]
             c = kept[r]
             a = starts[c]
-            if not _wins(g_star[r, m], a, best[m], idx[m]):
+            if not wins(g_star[r, m], a, best[m], idx[m]):
                 continue
-            q = (zm.origin_x + (i0 + m % TILE) * zm.grid_mm, zm.origin_y + (j0 + m // TILE) * zm.grid_mm)
-            best[m], idx[m], evaluated = _search(q, s_star[r, m], best[m], idx[m], a, starts[c + 1], run_row(runs, c),
-                                                 pos, tool, bt.stamp_first and a == 0)
+            best[m], idx[m], evaluated = search((ws.qx[m], ws.qy[m]), s_star[r, m], best[m], idx[m], a, starts[c + 1],
+                                                run_row(runs, c), pos, tool, bt.stamp_first and a == 0)
             counts[1] += 1
             counts[2] += evaluated
         top = max(top, best[m])
     return top
+
+
+@njit(cache=True)
+def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
+    """The kept runs r0 .. r1-1 at each node of the tile: for a ball one run after the other at every node at
+    once (search.sweep_ball), else per node (_search_nodes); returns the tile's highest node."""
+    if bt.core != 0.0:
+        return _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts)
+    tool = (bt.core, bt.corner, zm.floor_mm)
+    for r in range(r0, r1):
+        c = ws.kept[r]
+        a = starts[c]
+        sweep_ball(ws.g_star[r], ws.s_star[r], a, starts[c + 1], run_row(runs, c), bt.pos, tool,
+                   bt.stamp_first and a == 0, ws.qx, ws.qy, ws.best, ws.idx, counts)
+    return np.max(ws.best)
 
 
 @njit(cache=True)
@@ -242,7 +208,7 @@ def workspace(listed, runs):
     n = listed.shape[0]
     return Workspace(_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
                      np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty((n, NODES)), np.empty((n, NODES)),
-                     np.empty(n, np.int64), np.empty(n, np.int64))
+                     np.empty(n, np.int64), np.empty(n, np.int64), np.empty(NODES), np.empty(NODES))
 
 
 @njit(cache=True, inline="always")
@@ -279,8 +245,9 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         j, i = j0 + m // TILE, i0 + m % TILE
         best[m] = z[j, i] if j < ny and i < nx else -np.inf
         idx[m] = -1
-    # the first group: the runs whose key is within GROUP_MM of the lowest, searched at each node in the order
-    # of their G* there, so that each node's best is nearly final before the other runs are pruned against it
+        ws.qx[m], ws.qy[m] = origin_x + i * grid_mm, origin_y + j * grid_mm
+    # the first group: the runs whose key is within GROUP_MM of the lowest, so that each node's best is nearly
+    # final before the other runs are pruned against it
     key0 = ws.cand_key[first] + GROUP_MM
     kept = 0
     for q in range(n):
@@ -288,7 +255,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
             _keep(q, kept, i0, j0, zm, bt.core, cand, runs, ws)
             kept += 1
     group = kept
-    top = _search_nodes(0, group, i0, j0, zm, bt, starts, runs, ws, counts)
+    top = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
     for q in range(n):
         if ws.cand_key[q] <= key0 or cand_bound[q] > top or _plane_prunes(run_row(runs, cand[q]), mx, my, grid_mm,
                                                                           floor_mm, starts[cand[q]], best, idx):
@@ -296,7 +263,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         _keep(q, kept, i0, j0, zm, bt.core, cand, runs, ws)
         kept += 1
     counts[2] += kept * NODES
-    _search_nodes(group, kept, i0, j0, zm, bt, starts, runs, ws, counts)
+    _search_nodes(group, kept, zm, bt, starts, runs, ws, counts)
     new_top = -np.inf
     for m in range(NODES):
         j, i = j0 + m // TILE, i0 + m % TILE

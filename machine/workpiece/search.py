@@ -1,0 +1,149 @@
+"""STEP 4's exact envelopes (machine/workpiece/tiles.py): a run's segments at the nodes of a tile, per node
+(search) or at every node at once (sweep_ball), numba.
+
+Both give each node the lowest exact envelope over every segment of the run and its height before
+(a segment takes a node that is lower, or as low by an earlier segment: ties between level passes are
+exact), evaluating only the segments near where the run's bound G (bounds.py) is least: G is convex along
+the run's line and below every segment's envelope, so a segment whose projection lies beyond a point
+where G does not reach the node's best cannot lower it.
+
+search     At one node: the segment whose projection holds G's minimum s*, then its neighbours outwards
+           while G at their near end is below the node's best.
+sweep_ball At every node of a tile, for a ball: the segments from the one before the lowest s* of the
+           nodes the run may lower to the one after the highest, each at all 64 nodes in one loop without
+           branches (envelope.ball_slanted: the CPU's vector units take four or eight nodes at a time),
+           then a search at each node where G beyond those segments still reaches the node's best.
+           On finish_g01.nc (one batch, one thread, cycle counters) a search took about 700 cycles (its
+           branches and square roots in a chain), a node of a swept segment about 25 (5 ns in a loop of its
+           own): the group's 3.3 M searches became 0.53 M segments swept at 64 nodes and 0.14 M searches.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from machine.workpiece.bounds import INV_LL, bound_line, proj
+from machine.workpiece.envelope import TINY_MM2, ball_slanted, envelope
+
+# The most segments a sweep evaluates at every node of a tile; a run slower than that across the tile
+# (short periods: a plunge, a slow approach) is searched per node instead.
+SWEEP_SEGMENTS = 16
+# Segments swept beyond those holding the lowest and the highest s*: a node whose s* lies in the first or last
+# of them often needs the next (G rises by only (83 um)^2 / 2r = 1.1 um over a period of 83 um at 5 m/min);
+# on finish_g01.nc 2 instead of 1 took the searches from 1.35 M to 1.28 M but the envelopes from 61 M to 68 M.
+SWEEP_MARGIN = 1
+
+
+@njit(cache=True, inline="always")
+def wins(v, k, best, idx):
+    """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
+    return v < best or (v == best and idx >= 0 and k < idx)
+
+
+@njit(cache=True, inline="always")
+def try_segment(qx, qy, k, best, idx, pos, tool, stamp):
+    """The exact envelope of segment k (a zero-length one only as the stream's very first); tool: (core,
+    corner, floor_mm)."""
+    x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
+    if x0 == x1 and y0 == y1 and z0 == z1 and not (stamp and k == 0):
+        return best, idx
+    v = max(envelope(qx, qy, x0, y0, z0, x1, y1, z1, tool[0], tool[1])[0], tool[2])
+    if wins(v, k, best, idx):
+        return v, k
+    return best, idx
+
+
+@njit(cache=True, inline="always")
+def segment_at(s, a, b, run, pos):
+    """The last segment of a .. b-1 whose start projects at or before s (projections advance along a run)."""
+    lo, hi = a, b - 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        if proj(pos, mid, run) <= s:
+            lo = mid
+        else:
+            hi = mid - 1
+    return lo
+
+
+@njit(cache=True, inline="always")
+def search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
+    """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4);
+    tool: (core, corner, floor_mm)."""
+    qx, qy = q
+    floor_mm = tool[2]
+    if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
+        best, idx = try_segment(qx, qy, a, best, idx, pos, tool, stamp)
+        return best, idx, 1
+    lo = segment_at(s_star, a, b, run, pos)
+    best, idx = try_segment(qx, qy, lo, best, idx, pos, tool, stamp)
+    n = 1
+    for k in range(lo + 1, b):
+        n += 1
+        if not wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
+            break
+        best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
+    for k in range(lo - 1, a - 1, -1):
+        n += 1
+        if not wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
+            break
+        best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
+    return best, idx, n
+
+
+@njit(cache=True, error_model="numpy")
+def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
+    """Segment k (not vertical) of a ball of radius r at every node: a loop without branches (numpy's error
+    model: python's would check each division for a zero, and the loop would not vectorize; none is zero
+    here, the segment not being vertical)."""
+    x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
+    for m in range(best.shape[0]):
+        v = max(ball_slanted(qx[m], qy[m], x0, y0, z0, x1, y1, z1, r)[0], floor_mm)
+        was, by = best[m], idx[m]
+        win = (v < was) | ((v == was) & (by >= 0) & (k < by))
+        best[m] = v if win else was
+        idx[m] = k if win else by
+
+
+@njit(cache=True)
+def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, counts):
+    """The run's segments a .. b-1 at the nodes (qx, qy) of a tile (best, idx updated), for a ball; g_star and
+    s_star: its bound's minimum and where it is reached at each node (bounds.ball_bounds); tool: (core,
+    corner, floor_mm). counts: searches, envelopes evaluated (tiles.COUNTS' 1 and 2)."""
+    floor_mm = tool[2]
+    s_lo, s_hi = np.inf, -np.inf
+    for m in range(best.shape[0]):
+        if wins(g_star[m], a, best[m], idx[m]):
+            s_lo, s_hi = min(s_lo, s_star[m]), max(s_hi, s_star[m])
+    if s_lo > s_hi:
+        return
+    k_lo, k_hi = a, a - 1  # the segments swept: none where the run stands still or is slow across the tile
+    if run[INV_LL] != 0.0:
+        k_lo = max(segment_at(s_lo, a, b, run, pos) - SWEEP_MARGIN, a)
+        k_hi = min(segment_at(s_hi, a, b, run, pos) + SWEEP_MARGIN, b - 1)
+        if k_hi - k_lo >= SWEEP_SEGMENTS:
+            k_lo, k_hi = a, a - 1
+    for k in range(k_lo, k_hi + 1):
+        dx, dy, dz = pos[k + 1, 0] - pos[k, 0], pos[k + 1, 1] - pos[k, 1], pos[k + 1, 2] - pos[k, 2]
+        if dx * dx + dy * dy > TINY_MM2:
+            _sweep_segment(k, pos, tool[1], floor_mm, qx, qy, best, idx)
+        elif dx != 0.0 or dy != 0.0 or dz != 0.0 or (stamp and k == 0):  # vertical, or the stream's first stamp
+            for m in range(best.shape[0]):
+                best[m], idx[m] = try_segment(qx[m], qy[m], k, best[m], idx[m], pos, tool, stamp)
+    counts[2] += (k_hi - k_lo + 1) * best.shape[0]
+    swept = k_hi >= k_lo
+    s_left, s_right = proj(pos, k_lo, run), proj(pos, k_hi + 1, run)
+    for m in range(best.shape[0]):
+        if not wins(g_star[m], a, best[m], idx[m]):
+            continue
+        if swept:  # G convex: beyond the swept segments no lower than at their ends, if s* lies between them
+            left = k_lo == a or (s_star[m] >= s_left
+                                 and not wins(bound_line(qx[m], qy[m], s_left, run, floor_mm), a, best[m], idx[m]))
+            right = k_hi == b - 1 or (s_star[m] <= s_right and not wins(bound_line(qx[m], qy[m], s_right, run,
+                                                                                   floor_mm), k_hi + 1, best[m],
+                                                                        idx[m]))
+            if left and right:
+                continue
+        best[m], idx[m], evaluated = search((qx[m], qy[m]), s_star[m], best[m], idx[m], a, b, run, pos, tool, stamp)
+        counts[1] += 1
+        counts[2] += evaluated
