@@ -23,9 +23,9 @@ machine stands).
 - `lookahead`: the phase-plane profile and its time parameterisation; `interval_lp`: the
   two-variable programme of one interval that its backward pass solves per sample.
 - `scurve`: S-curve mode's window: jerk-limited segments committed and put out by period;
-  `jerk_plan` finds them (passes, checks, limits raised where the checks allow) from the anchors
-  of `jerk_anchors`, `jerk_profile` holds the double-S closed forms and the time line of a chain
-  of segments.
+  `jerk_plan` finds them (passes, the checks of `jerk_checks`, limits raised where the checks
+  allow, staircases merged by `jerk_runs`) from the anchors of `jerk_anchors`, `jerk_profile`
+  holds the double-S closed forms and the time line of a chain of segments.
 - `window`: the look-ahead window (pieces, drivers, samples and caps, pending events),
   one object with one owner, the planner; `driver_changes`: what one build made.
 - `emission`: a refined profile -> the period grid -> quantised positions -> `PeriodBatch`;

@@ -15,8 +15,8 @@ always starts at an anchor) and the v^2 it must end with.
    leave a curve less, the checks find it with the terms as they are).
 3. Anchor speeds by a backward and a forward pass (jerk_profile.reach), then each gap's peak
    speed (jerk_profile.peak_speed, at most the highest sqrt(x_acc) inside it).
-4. Checks at every sample of every gap, with the segment's own speed, acceleration and jerk
-   there: v^2 <= x_acc; |t_i a + kv_i v^2| <= A_i; |t_i j| + 3 |kv_i| v |a| + |kv_i'| v^3 <= J_i
+4. Checks (ipo.feed.jerk_checks) at every sample of every gap, with the segment's own speed,
+   acceleration and jerk there: v^2 <= x_acc; |t_i a + kv_i v^2| <= A_i; |t_i j| + 3 |kv_i| v |a| + |kv_i'| v^3 <= J_i
    (kv' from the neighbouring samples; at a piece joint where the curvature steps by dkv_i,
    plus the step's STEP_JERK_SHARE v^2 |dkv_i| / T, which ipo.feed.limits' caps hold within
    J_i / 2).
@@ -28,8 +28,12 @@ always starts at an anchor) and the v^2 it must end with.
 5. Scales fall by a whole _SCALE_STEP where less would do: each gap whose limits fell takes, by
    bisection, the highest ones up to its nominal that pass every check of step 4 with its anchor
    speeds as they are (higher limits still reach them, so no other gap changes); a gap its
-   nominal limits would make quicker by at most _RAISE_MIN_S is left as it is. On g1_lhchips4
-   this took 251.4 s to 247.6 s.
+   nominal limits would make quicker by at most _RAISE_MIN_S is left as it is (the limits are
+   tried at the peak they allow, else at the gap's own). On g1_lhchips4 this took 251.4 s to
+   247.6 s.
+6. Runs of gaps that only rise or only fall, a staircase of speed changes each with zero
+   acceleration at its ends, become one speed change where that passes every check and is
+   quicker (ipo.feed.jerk_runs): on g1_lhchips4, 247.6 s to 246.8 s.
 """
 from __future__ import annotations
 
@@ -39,23 +43,17 @@ import numpy as np
 from numba import njit
 
 from ipo.feed.jerk_anchors import anchors, curved_intervals
-from ipo.feed.jerk_profile import peak_speed, phases, reach, reach_down, state, time_at, transition_distance
-from ipo.feed.limits import STEP_JERK_SHARE
+from ipo.feed.jerk_checks import ACC_OVER, JERK_OVER, Segment, above_x, anchor_peaks, check, nominal, rates
+from ipo.feed.jerk_runs import merge_runs
+from ipo.feed.jerk_profile import peak_speed, phases, reach, reach_down, transition_distance
 
 _ROUNDS = 40  # of steps 3 and 4; each round fixes something, and scales only fall; after half
 # of them a gap that still fails has every sample as an anchor
 _SCALE_STEP = 0.7
-# what step 4 finds over in a gap; each lowers its own scale (a straight gap that ends next to
-# a curvature step keeps half the jerk there, but not half the acceleration)
-_ACC_OVER = 1
-_JERK_OVER = 2
-# a peak lowered by more than this share to stay under x_acc makes the worst sample an anchor instead
 _PEAK_GIVE = 0.02
-_SLACK = 1e-9
+_PEAK_STEPS = 14  # of that bisection: the peak within (p - base) / 16384 below the highest that clears it
 _RAISE_STEPS = 5  # of step 5's bisection
 _RAISE_MIN_S = 2e-5  # s; most of lhchips4's gaps gain less, and their checks were a third of the plan
-_JOINT_MM = 1e-9  # samples closer than this are the two sides of one piece joint
-_STANDSTILL = 1e-9  # mm/s
 # share of an axis's acceleration x_acc leaves free where it rides that axis's curvature cap:
 # with none, a segment through such a sample may have no path acceleration there at all, and
 # its gap's scale fell by _SCALE_STEP for many rounds (down to the staircase) before it passed
@@ -78,165 +76,6 @@ class AxisLimits(NamedTuple):
     period_s: float
 
 
-class Segment(NamedTuple):
-    """One gap's jerk-limited segment, as jerk_profile.phases takes it."""
-
-    va: float  # start speed, mm/s
-    vp: float  # peak speed
-    vb: float  # end speed
-    a: float  # path acceleration limit, mm/s^2
-    j: float  # path jerk limit, mm/s^3
-
-
-@njit(cache=True)
-def _nominal(t, lo, hi, a_axis, j_axis):
-    """Step 2: the gap's path acceleration and jerk limits before scaling."""
-    a = 1e300
-    j = 1e300
-    for k in range(lo, hi + 1):
-        for i in range(3):
-            ti = abs(t[k, i])
-            if ti > 1e-12:
-                a = min(a, a_axis[i] / ti)
-                j = min(j, j_axis[i] / ti)
-    return a, j
-
-
-@njit(cache=True)
-def _step(kv, k, other, i):
-    """|kv_i| step where sample k meets the sample `other` at the same arc length (a piece
-    joint), 0 where there is none."""
-    if other < 0 or other >= kv.shape[0]:
-        return 0.0
-    return abs(kv[other, i] - kv[k, i])
-
-
-@njit(cache=True)
-def _rates(s, kv):
-    """|dkv_i/ds| at each sample from the neighbouring samples along the path (the larger side;
-    a piece joint, two samples at one arc length, is a step, not a rate): once per plan, the
-    checks read it at every sample of every round."""
-    n = s.shape[0]
-    rate = np.zeros((n, 3))
-    for k in range(n - 1):
-        ds = s[k + 1] - s[k]
-        if ds > _JOINT_MM:
-            for i in range(3):
-                r = abs(kv[k + 1, i] - kv[k, i]) / ds
-                rate[k, i] = max(rate[k, i], r)
-                rate[k + 1, i] = r
-    return rate
-
-
-@njit(cache=True)
-def _axes_over(geo, rate, k, motion, lim, curved, step):
-    """Which limits some axis is over with the geometry of sample k (rate: _rates) and the
-    state motion = (v, acc, jk) (speed, path acceleration and jerk): _ACC_OVER | _JERK_OVER, 0
-    if none; step: per axis, STEP_JERK_SHARE |dkv_i| / T where sample k is a piece joint at
-    which the curvature steps by dkv (0 elsewhere). A jerk over its limit mostly through the coupling 3 kv_i v a is the
-    acceleration's to lower too."""
-    t, kv = geo.t, geo.kv
-    v, acc, jk = motion
-    over = 0
-    for i in range(3):
-        if abs(t[k, i] * acc + kv[k, i] * v * v) > lim.a_axis[i] * (1.0 + _SLACK):
-            over |= _ACC_OVER
-        # axis jerk t_i j + 3 kv_i v a + kv_i' v^3, and where pieces meet the step's
-        # STEP_JERK_SHARE v^2 |dkv_i| / T, which the periods around the joint see together
-        # with the path's jerk on both sides (the caps hold it within half of J_i; at the
-        # speed the segment has there it is often far less)
-        budget = lim.j_axis[i] - step[i] * v * v - (rate[k, i] * v**3 if curved else 0.0)
-        extra = 3.0 * abs(kv[k, i]) * v * abs(acc) if curved else 0.0
-        if abs(t[k, i]) * abs(jk) + extra > budget * (1.0 + _SLACK):
-            over |= _JERK_OVER | (_ACC_OVER if extra > 0.5 * budget else 0)
-    return over
-
-
-@njit(cache=True)
-def _x_ratio(v, xk):
-    """v^2 / x_acc where the speed passes above x_acc at a sample (beyond rounding), else 1."""
-    if v * v > xk * (1.0 + 1e-6) + 1e-9:
-        return v * v / max(xk, 1e-300)
-    return 1.0
-
-
-@njit(cache=True)
-def _above_x(s, x, lo, hi, seg):
-    """Whether the segment (Segment) passes above x_acc at some sample of its gap: the speeds
-    alone, for the peak's bisection in step 4 (the axes are checked once, at the peak it
-    settles on)."""
-    length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
-    for k in range(lo, hi + 1):
-        v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
-        if _x_ratio(v, x[k]) > 1.0:
-            return True
-    return False
-
-
-@njit(cache=True)
-def _check(geo, rate, x, lo, hi, seg, lim, curved):
-    """Step 4 for one gap: (worst sample over x_acc or -1, and which limits an axis is over). The
-    axes are checked at every sample and, with the geometry of the samples either side, where
-    each phase starts (the acceleration peaks between samples)."""
-    s, kv = geo.s, geo.kv
-    length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
-    worst, worst_ratio = -1, 1.0
-    axis_over = 0
-    no_step = np.zeros(3)
-    step = np.zeros(3)
-    for k in range(lo, hi + 1):
-        d = min(max(s[k] - s[lo], 0.0), length)
-        _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
-        if k == hi:
-            jk = jj[6]  # the end of the last ramp
-        r = _x_ratio(v, x[k])
-        if r > worst_ratio:
-            worst, worst_ratio = k, r
-        other = -1  # the sample across a piece joint at a gap's end
-        if k == lo and k > 0 and s[k] - s[k - 1] <= _JOINT_MM:
-            other = k - 1
-        elif k == hi and k + 1 < s.shape[0] and s[k + 1] - s[k] <= _JOINT_MM:
-            other = k + 1
-        for i in range(3):
-            step[i] = STEP_JERK_SHARE * _step(kv, k, other, i) / lim.period_s
-        axis_over |= _axes_over(geo, rate, k, (v, acc, jk), lim, curved, step)
-    k = lo
-    for q in range(1, 7):
-        d = ss[q]
-        if not 0.0 < d < length:
-            continue
-        while k + 1 < hi and s[k + 1] - s[lo] < d:
-            k += 1
-        jq = max(abs(jj[q - 1]), abs(jj[q]))  # the axes see |jerk|: the larger one either side covers both
-        axis_over |= _axes_over(geo, rate, k, (vv[q], aa[q], jq), lim, curved, no_step)
-        axis_over |= _axes_over(geo, rate, k + 1, (vv[q], aa[q], jq), lim, curved, no_step)
-    return worst, axis_over
-
-
-@njit(cache=True)
-def _anchor_peaks(s, x, lo, hi, seg, anchor):
-    """Make the worst sample of every run of samples where the segment (Segment) passes above
-    x_acc an anchor; whether any was new."""
-    length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
-    new = False
-    best, best_r = -1, 1.0
-    for k in range(lo, hi + 2):
-        r = 1.0
-        if k <= hi:
-            v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
-            r = _x_ratio(v, x[k])
-        if r > best_r:
-            best, best_r = k, r
-        elif r <= 1.0 and best >= 0:
-            new |= not anchor[best]
-            anchor[best] = True
-            best, best_r = -1, 1.0
-    return new
-
-
 @njit(cache=True)
 def plan(geo, x, lim, v0, x_end, straight_min_mm):
     """Anchors (sample indices), their speeds, and per gap the peak speed and the path
@@ -251,7 +90,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
             if kv[k, i] != 0.0:
                 x[k] = min(x[k], (1.0 - _CURVE_ROOM) * a_axis[i] / abs(kv[k, i]))
     curved = curved_intervals(s, t, kv, straight_min_mm)
-    rate = _rates(s, kv)
+    rate = rates(s, kv)
     anchor = anchors(s, x, curved)
     scale_a = np.ones(max(n - 1, 1))
     scale_j = np.ones(max(n - 1, 1))
@@ -275,7 +114,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
         for g in range(m - 1):
             lo, hi = idx[g], idx[g + 1]
             cv[g] = curved[lo] if hi > lo else False
-            a, j = _nominal(t, lo, hi, a_axis, j_axis)
+            a, j = nominal(t, lo, hi, a_axis, j_axis)
             if hi > lo:
                 a *= scale_a[lo:hi].min()
                 j *= scale_j[lo:hi].min()
@@ -310,27 +149,28 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
                 continue
             top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), base)
             p = peak_speed(w[g], w[g + 1], length, top, ag[g], jg[g])
-            worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
+            worst, over = check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g], False)
             if worst >= 0 and p > base:
                 low, high = base, p
-                for _b in range(24):
+                for _b in range(_PEAK_STEPS):
                     mid = 0.5 * (low + high)
-                    if not _above_x(s, x, lo, hi, Segment(w[g], mid, w[g + 1], ag[g], jg[g])):
+                    if not above_x(s, x, lo, hi, Segment(w[g], mid, w[g + 1], ag[g], jg[g])):
                         low = mid
                     else:
                         high = mid
                 if low >= (1.0 - _PEAK_GIVE) * p:  # a slightly lower peak clears it
                     p = low
-                    worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g])
+                    worst, over = check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), lim, cv[g],
+                                        False)
             vp[g] = p
             if (worst >= 0 or over != 0) and rnd >= _ROUNDS // 2:
                 anchor[lo:hi + 1] = True  # the last resort: a stop-free staircase, sample by sample
                 changed = True
             elif worst >= 0:
-                changed |= _anchor_peaks(s, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), anchor)
-            if over & _ACC_OVER:
+                changed |= anchor_peaks(s, x, lo, hi, Segment(w[g], p, w[g + 1], ag[g], jg[g]), anchor)
+            if over & ACC_OVER:
                 scale_a[lo:hi] *= _SCALE_STEP
-            if over & _JERK_OVER:
+            if over & JERK_OVER:
                 scale_j[lo:hi] *= _SCALE_STEP
             if over != 0:
                 changed = True
@@ -343,6 +183,7 @@ def plan(geo, x, lim, v0, x_end, straight_min_mm):
             break
     if converged:
         _raise_limits(geo, rate, x, lim, curved, idx, w, vp, ag, jg)
+        idx, w, vp, ag, jg = merge_runs(geo, rate, x, lim, curved, idx, w, vp, ag, jg)
     return idx, w, vp, ag, jg, converged
 
 
@@ -358,7 +199,7 @@ def _raise_limits(geo, rate, x, lim, curved, idx, w, vp, ag, jg):
         length = s[hi] - s[lo]
         if length <= 0.0:
             continue
-        a_nom, j_nom = _nominal(t, lo, hi, lim.a_axis, lim.j_axis)
+        a_nom, j_nom = nominal(t, lo, hi, lim.a_axis, lim.j_axis)
         if ag[g] >= a_nom and jg[g] >= j_nom:
             continue
         top = max(np.sqrt(max(x[lo:hi + 1].max(), 0.0)), max(w[g], w[g + 1]))
@@ -373,10 +214,10 @@ def _raise_limits(geo, rate, x, lim, curved, idx, w, vp, ag, jg):
             a, j = min(a_nom, ag[g] * mid), min(j_nom, jg[g] * mid)
             # the peak these limits allow, else the one the gap has (shorter speed changes fit)
             p = max(vp[g], peak_speed(w[g], w[g + 1], length, top, a, j))
-            worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], a, j), lim, curved[lo])
-            if worst >= 0 and over == 0 and p > vp[g]:
+            worst, over = check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], a, j), lim, curved[lo], True)
+            if (worst >= 0 or over != 0) and p > vp[g]:
                 p = vp[g]
-                worst, over = _check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], a, j), lim, curved[lo])
+                worst, over = check(geo, rate, x, lo, hi, Segment(w[g], p, w[g + 1], a, j), lim, curved[lo], True)
             if worst < 0 and over == 0:
                 ok, ok_p = mid, p
             else:

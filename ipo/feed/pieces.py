@@ -211,7 +211,9 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     blend &= g2 | (radius >= min_blend_radius_mm)
     chain = np.zeros_like(blend)
     if g2_limits is not None:  # runs of small turns between lines: one curvature-continuous curve
-        runs = chain_runs(both & (theta > _COLLINEAR_RAD) & (theta < CHAIN_MAX_RAD),
+        # a quintic takes half of each of its moves: a run keeps to feed moves or rapids, under one spindle speed
+        alike = (rapid[:-1] == rapid[1:]) & (rpm[:-1] == rpm[1:])
+        runs = chain_runs(both & alike & (theta > _COLLINEAR_RAD) & (theta < CHAIN_MAX_RAD),
                           x_corner < np.minimum(feed[:-1], feed[1:]) ** 2)
         chain, chain_ctrl = g2_chains(start, unit, length, runs, tol[:-1], g2_limits)
         blend &= ~chain
@@ -280,6 +282,8 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     pc.omega[k] = 1.0 / radius[jb]
     pc.length[k] = radius[jb] * theta[jb]
     # 4. the Bezier blends (at arcs, at NURBS, curvature-continuous) with their drivers
+    jc = np.nonzero(chain[:emit])[0]  # a chain's quintic at the lower feed of its two moves
+    pc.feed_mm_s[bl[jc]] = np.minimum(feed[jc], feed[jc + 1])
     for j, ctrl in bezier_blends.items():
         _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
     for j in np.nonzero(g2[:emit])[0]:

@@ -6,6 +6,8 @@ differences of the per-period positions, and the run's worth against the same ru
 chains switched off."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline
@@ -14,7 +16,7 @@ import ipo.feed.pieces as pieces
 from ipo.feed.blends.g2_chains import _MU2, _midpoint_curvatures, chain_runs
 from ipr.entities import Line, PathControl
 from tests.ipo.feed.test_g2_joint_blend import BEZIER5, assert_within_p, built
-from tests.ipo.feed.test_jerk_profile import assert_within_limits, run
+from tests.ipo.feed.test_jerk_profile import CFG, assert_within_limits, run
 
 
 def polyline(pts, tol, feed=100.0):
@@ -118,3 +120,25 @@ def test_noisy_curves_keep_the_limits_and_p_and_run_faster(seed, monkeypatch):
     assert_within_p(pos, ents, tol)
     np.testing.assert_allclose(pos[-1], ents[-1].end, atol=1e-6)
     assert len(pos) < len(without_chains(monkeypatch, ents))  # 0.885-0.99x on seeds 100-107
+
+
+def test_a_run_crosses_a_feed_change_at_the_lower_feed():
+    """A quintic takes half of each of its moves: on the polygon of R 10 with F6000 on its first
+    45 moves and F1200 after, the run goes on through the change (its quintics meet at about
+    1/10 there, scipy's derivatives) and the quintic across it has the lower feed."""
+    ang = np.radians(np.arange(0, 91))
+    pts = np.c_[10 * np.cos(ang), 10 * np.sin(ang), np.zeros(len(ang))]
+    ents = polyline(pts, 0.01, feed=100.0)
+    ents = ents[:45] + [dataclasses.replace(e, feed_mm_s=20.0) for e in ents[45:]]
+    pc, quintics = built(ents)
+    mids = 0.5 * (pts[:-1] + pts[1:])
+    spans = [(int(np.argmin(np.linalg.norm(mids - q.points[0], axis=1))),
+              int(np.argmin(np.linalg.norm(mids - q.points[-1], axis=1)))) for q in quintics]
+    by_span = dict(zip(spans, quintics))
+    k = curvature(np.asarray(by_span[(44, 45)].points, float), np.array([0.0, 1.0]))[1]
+    np.testing.assert_allclose(k, 0.1, rtol=0.05)
+    assert [by_span[s].feed_mm_s for s in ((43, 44), (44, 45), (45, 46))] == [100.0, 20.0, 20.0]
+    pos = run(ents)
+    v = np.linalg.norm(np.diff(pos, axis=0), axis=1) / CFG.period_s
+    past = np.arctan2(pos[:-1, 1], pos[:-1, 0]) > np.radians(44.5)  # periods from the quintic's start on
+    assert v[past].max() <= 20.0 + 2 * CFG.blu_mm / CFG.period_s  # BLU rounding of both ends

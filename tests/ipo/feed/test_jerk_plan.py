@@ -1,11 +1,14 @@
 """S-curve mode's plan of one window (ipo.feed.jerk_plan) on an exact circular arc: the limits
-that step 5 raises, checked by finite differences of positions on the arc itself."""
+that step 5 raises and the staircases that step 6 (ipo.feed.jerk_runs) merges, checked by finite
+differences of positions on the arc itself and against ruckig."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from ipo.feed import jerk_plan
-from ipo.feed.jerk_profile import arc_lengths_at, durations, peak_speed, transition_distance
+from ipo.feed import jerk_checks, jerk_plan, jerk_runs
+from ipo.feed.jerk_profile import arc_lengths_at, durations, peak_speed, reach, transition_distance
+from tests.ipo.feed.test_jerk_profile import ruckig_1d
 
 R = 5.0  # mm, arc radius
 DS = 0.05  # mm between samples
@@ -15,7 +18,7 @@ T = 1e-3
 F = 100.0  # mm/s, programmed feed
 
 
-def arc_window():
+def arc_window(feed=F):
     """Samples of a three-quarter circle in XY (s, t, kv exact) and an acceleration-limited x_acc
     from rest to rest: the curvature cap A / kappa and the feed, with tangential acceleration
     A / 2 (what jerk_plan is given; it need not be the look-ahead's own)."""
@@ -23,7 +26,7 @@ def arc_window():
     phi = s / R
     t = np.c_[-np.sin(phi), np.cos(phi), np.zeros_like(phi)]
     kv = np.c_[-np.cos(phi), -np.sin(phi), np.zeros_like(phi)] / R
-    cap = np.full(s.shape, min(F * F, A[0] * R))
+    cap = np.full(s.shape, min(feed * feed, A[0] * R))
     cap[0] = cap[-1] = 0.0
     x = cap.copy()
     for k in range(1, len(s)):
@@ -62,12 +65,12 @@ def test_raised_limits_keep_every_axis_within_its_limits_and_save_time():
         if transition_distance(w[g], p, a, j) + transition_distance(p, w[g + 1], a, j) <= length:
             lowered_a[g], lowered_j[g], lowered_vp[g] = a, j, p
     lowered = lowered_a < ag
-    assert lowered.sum() >= 3
+    assert lowered.sum() >= 2
     ag2, jg2, vp2 = lowered_a.copy(), lowered_j.copy(), lowered_vp.copy()
     curved = np.ones(len(geo.s) - 1, np.bool_)
-    jerk_plan._raise_limits(geo, jerk_plan._rates(geo.s, geo.kv), x, lim, curved, idx, w, vp2, ag2, jg2)
-    nominal_a = np.array([jerk_plan._nominal(geo.t, lo, hi, A, J)[0] for lo, hi in zip(idx[:-1], idx[1:])])
-    nominal_j = np.array([jerk_plan._nominal(geo.t, lo, hi, A, J)[1] for lo, hi in zip(idx[:-1], idx[1:])])
+    jerk_plan._raise_limits(geo, jerk_checks.rates(geo.s, geo.kv), x, lim, curved, idx, w, vp2, ag2, jg2)
+    nominal_a = np.array([jerk_checks.nominal(geo.t, lo, hi, A, J)[0] for lo, hi in zip(idx[:-1], idx[1:])])
+    nominal_j = np.array([jerk_checks.nominal(geo.t, lo, hi, A, J)[1] for lo, hi in zip(idx[:-1], idx[1:])])
     assert np.all(ag2 >= lowered_a) and np.all(jg2 >= lowered_j)
     assert np.all(ag2 <= nominal_a) and np.all(jg2 <= nominal_j)
     assert np.all((ag2 > lowered_a) | (jg2 > lowered_j) | ~lowered)
@@ -82,3 +85,60 @@ def test_raised_limits_keep_every_axis_within_its_limits_and_save_time():
         jerk = (pos[3:] - 3 * pos[2:-1] + 3 * pos[1:-2] - pos[:-3]) / T**3
         assert np.abs(acc).max() <= A[0] * slack, np.abs(acc).max()
         assert np.abs(jerk).max() <= J[0] * slack + 1e-6, np.abs(jerk).max()
+
+
+def assert_within_axis_limits(geo, idx, w, vp, ag, jg):
+    """The motion on the exact arc within each axis's acceleration and jerk (central differences
+    one period apart, slack as derived in the test of step 5)."""
+    pos = positions(geo, idx, w, vp, ag, jg)
+    acc = (pos[2:] - 2 * pos[1:-1] + pos[:-2]) / T**2
+    jerk = (pos[3:] - 3 * pos[2:-1] + 3 * pos[1:-2] - pos[:-3]) / T**3
+    slack = 1.0 + 1.3e-5 + 1e-9
+    assert np.abs(acc).max() <= A[0] * slack, np.abs(acc).max()
+    assert np.abs(jerk).max() <= J[0] * slack + 1e-6, np.abs(jerk).max()
+
+
+def test_a_staircase_of_rising_gaps_becomes_one_speed_change_within_the_limits():
+    """Step 6 on a staircase: on the arc window at 40 mm/s (the centripetal acceleration 320 mm/s^2),
+    anchors every 0.1 mm of the rise from rest, each gap the fastest change with zero acceleration
+    at both ends (then a cruise), with 0.7 of the nominal limits (within every axis's: sqrt(700^2 + 320^2) mm/s^2,
+    and 7e4 + 3 v a / R mm/s^3), to a speed under x_acc all along the gap. It merges gaps into
+    fewer, quicker ones between anchors of the staircase, with their speeds; each merged gap is
+    ruckig's time-optimal motion over its length between those speeds (its own limits, no speed
+    above the higher end), and the whole motion keeps every axis within its limits and the speed
+    under x_acc at every sample."""
+    geo, x = arc_window(40.0)
+    rise = int(np.argmax(x >= x.max()))  # where x_acc reaches the cruise; the window ends 1 mm on
+    geo, x = jerk_plan.Geometry(*(v[:rise + 21] for v in geo)), x[:rise + 21]
+    lim = jerk_plan.AxisLimits(A, J, T)
+    s = geo.s
+    a_nom, j_nom = jerk_checks.nominal(geo.t, 0, len(s) - 1, A, J)
+    a, j = 0.7 * a_nom, 0.7 * j_nom
+    idx = np.r_[np.arange(0, rise, 2), len(s) - 1]  # the last gap cruises at the speed reached
+    w = np.zeros(len(idx))
+    for g in range(len(idx) - 2):
+        w[g + 1] = min(np.sqrt(x[idx[g]]), reach(w[g], s[idx[g + 1]] - s[idx[g]], a, j))
+    w[-1] = w[-2]
+    vp = np.maximum(w[:-1], w[1:])
+    ag, jg = np.full(len(idx) - 1, a), np.full(len(idx) - 1, j)
+    assert_within_axis_limits(geo, idx, w, vp, ag, jg)
+    curved = np.ones(len(s) - 1, np.bool_)
+    rate = jerk_checks.rates(s, geo.kv)
+    idx2, w2, vp2, ag2, jg2 = jerk_runs.merge_runs(geo, rate, x, lim, curved, idx, w, vp, ag, jg)
+    assert len(idx2) <= len(idx) // 2 and set(idx2) <= set(idx)
+    assert np.array_equal(w2, w[np.isin(idx, idx2)])
+    assert durations(s, idx2, w2, vp2, ag2, jg2).sum() < durations(s, idx, w, vp, ag, jg).sum()
+    merged = np.diff(np.searchsorted(idx, idx2)) > 1
+    for g in np.nonzero(merged)[0]:
+        length = s[idx2[g + 1]] - s[idx2[g]]
+        traj = ruckig_1d(length, w2[g], w2[g + 1], max(w2[g], w2[g + 1]), ag2[g], jg2[g])
+        assert durations(s, idx2[g:g + 2], w2[g:g + 2], vp2[g:g + 1], ag2[g:g + 1], jg2[g:g + 1])[0] == \
+            pytest.approx(traj.duration, rel=1e-9)
+        assert ag2[g] <= a_nom and jg2[g] <= j_nom
+    assert_within_axis_limits(geo, idx2, w2, vp2, ag2, jg2)
+    t_start = np.r_[0.0, np.cumsum(durations(s, idx2, w2, vp2, ag2, jg2))]
+    times = np.arange(0.0, t_start[-1], 1e-4)
+    sv = arc_lengths_at(times, s, idx2, w2, vp2, ag2, jg2, t_start)[0]
+    speed = np.diff(sv) / 1e-4  # the mean over 0.1 ms, under the largest x_acc at its samples
+    k = np.searchsorted(s, sv[1:], side="right") - 1
+    assert np.all(speed**2 <= np.maximum(x[k], x[np.minimum(k + 1, len(s) - 1)]) * (1 + 1e-9))
