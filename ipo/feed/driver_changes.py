@@ -14,10 +14,10 @@ from collections.abc import Callable, Mapping
 class DriverChanges:
     """A mapping NURBS index -> driver: the intake's drivers with this build's changes on top."""
 
-    def __init__(self, drivers: Mapping, next_index: int, make_driver: Callable):
+    def __init__(self, drivers: Mapping, next_index: int, make_drivers: Callable):
         self._base = drivers
         self._next = next_index  # the index the first new blend gets
-        self._make = make_driver  # Nurbs -> its driver (a pure factory)
+        self._make = make_drivers  # list of Nurbs -> their drivers (a pure factory)
         self.changed: dict = {}  # index -> new driver, or None where a curve was trimmed away
         self.added = 0  # blends added, indices next_index..next_index + added - 1
 
@@ -36,9 +36,9 @@ class DriverChanges:
         self[k]  # a KeyError for a curve that is not there, as a dict's del
         self.changed[k] = None
 
-    def add(self, entity) -> int:
-        """A new blend curve: its index, with its driver made."""
-        idx = self._next + self.added
-        self.added += 1
-        self.changed[idx] = self._make(entity)
+    def add(self, blends: list) -> range:
+        """New blend curves: their indices, with their drivers made (in one call: a build has thousands)."""
+        idx = range(self._next + self.added, self._next + self.added + len(blends))
+        self.added += len(blends)
+        self.changed.update(zip(idx, self._make(blends)))
         return idx

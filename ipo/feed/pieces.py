@@ -137,7 +137,7 @@ class Built(NamedTuple):
 
 
 def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_default_mm: float,
-          rapid_mm_s: float, drivers, next_index: int, make_driver, min_blend_radius_mm: float = 0.0,
+          rapid_mm_s: float, drivers, next_index: int, make_drivers, min_blend_radius_mm: float = 0.0,
           g2_limits: tuple[float, float, float, float] | None = None) -> Built:
     """Pieces for motions[0..n-2] and, if `final`, motions[n-1] too (ending at a stop).
 
@@ -147,15 +147,14 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     `drivers` maps the owner's NURBS index to its driver (ipo.feed.nurbs_driver: entity,
     arc-length table, trimmed()) and is only read; the result's `drivers` holds a NURBS
     trimmed by corner blends with the driver of its remaining part at the same index, and
-    each corner blend curve with the driver `make_driver` made for it at the next free
+    each corner blend curve with the driver `make_drivers` made for it (all in one call) at the next free
     index from `next_index` on. A corner whose blend radius would be below min_blend_radius_mm is not blended
     (S-curve mode: ipo.feed.limits.min_blend_radius_mm). With g2_limits = (a, j, x_min, step)
     (S-curve mode: ipo.feed.limits.g2_blend_limits) a corner between two lines gets the
     curvature-continuous blend of ipo.feed.blends.curvature_continuous where it is faster than both the arc and a
     stop (ipo.feed.blends.curvature_continuous.g2_corners).
     """
-    nurbs = DriverChanges(drivers, next_index, make_driver)
-    add_blend = nurbs.add
+    nurbs = DriverChanges(drivers, next_index, make_drivers)
     # 1. the moves as arrays: ends, feed, tolerance, length, tangents at both ends
     n = len(motions)
     ents = [m[0] for m in motions]
@@ -284,10 +283,9 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     # 4. the Bezier blends (at arcs, at NURBS, curvature-continuous) with their drivers
     jc = np.nonzero(chain[:emit])[0]  # a chain's quintic at the lower feed of its two moves
     pc.feed_mm_s[bl[jc]] = np.minimum(feed[jc], feed[jc + 1])
-    for j, ctrl in bezier_blends.items():
-        _put_blend(pc, bl[j], ctrl, nurbs, add_blend)
-    for j in np.nonzero(g2[:emit])[0]:
-        _put_blend(pc, bl[j], g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])), nurbs, add_blend)
+    blends = list(bezier_blends.items()) + [(j, g2_control_points(end[j], unit[j], unit[j + 1], float(d[j])))
+                                            for j in np.nonzero(g2[:emit])[0]]
+    _put_blends(pc, bl[[j for j, _ in blends]], [ctrl for _, ctrl in blends], nurbs)
     # 5. arcs and NURBS without what their blends took
     ra = np.nonzero(is_arc[:emit])[0]
     trimmed_arcs(arcs.geometry, arcs.length, pc.geometry, pc.length, ra, 2 * ra, trim_in[ra], trim_out[ra])
@@ -297,16 +295,17 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     return Built(pc.take(np.nonzero(keep)[0]), 0.0 if final else float(trim_in[n - 1]), nurbs)
 
 
-def _put_blend(pc: Pieces, slot: int, ctrl: np.ndarray, nurbs, add_blend) -> None:
-    """The cubic (or G2 quintic) Bezier with control points ctrl as the blend piece in slot
-    (whose line and feed, those of the move before it, are set)."""
-    knots = BEZIER3_KNOTS if len(ctrl) == 4 else BEZIER5_KNOTS
-    idx = add_blend(Nurbs(int(pc.line[slot]), len(ctrl) - 1, knots.copy(), np.ones(len(ctrl)), ctrl,
-                          float(pc.feed_mm_s[slot])))
-    pc.kind[slot] = KIND_BLEND
-    pc.nurbs[slot] = idx
-    pc.length[slot] = nurbs[idx].table.length
-    pc.c[slot] = ctrl[0]
+def _put_blends(pc: Pieces, slots: np.ndarray, ctrls: list[np.ndarray], nurbs: DriverChanges) -> None:
+    """The cubic (or G2 quintic) Beziers with control points ctrls as the blend pieces in slots
+    (whose line and feed, those of the move before each, are set)."""
+    if not ctrls:
+        return
+    idx = nurbs.add([Nurbs(int(pc.line[k]), len(ctrl) - 1, (BEZIER3_KNOTS if len(ctrl) == 4 else BEZIER5_KNOTS).copy(),
+                           np.ones(len(ctrl)), ctrl, float(pc.feed_mm_s[k])) for k, ctrl in zip(slots, ctrls)])
+    pc.kind[slots] = KIND_BLEND
+    pc.nurbs[slots] = idx
+    pc.length[slots] = [nurbs[i].table.length for i in idx]
+    pc.c[slots] = [ctrl[0] for ctrl in ctrls]
 
 
 def _trimmed_nurbs(pc: Pieces, slot: int, k: int, nurbs, trim_in: float, trim_out: float) -> None:

@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from ipo.nurbs import kernel as nk
-from ipo.feed.blends.compiled import bezier_points_at, bezier_table
+from ipo.feed.blends.compiled import bezier_points_at, bezier_tables
 from ipo.errors import NURBS_PATH, IpoError
 from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS
 from ipo.feed.analytic import frame_into
@@ -191,11 +191,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
     within about that distance, at the halved acceleration of the interval next to it.
     """
     if _is_blend(e):  # a corner blend: the same table, compiled
-        *table, ok = bezier_table(np.asarray(e.points, dtype=float), _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS,
-                                  MAX_TURN_RAD, MAX_SPACING_MM)
-        if not ok:
-            raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", e.line)
-        return NurbsTable(*table, bezier=True)
+        return blend_tables([e])[0]
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])
     u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
@@ -221,6 +217,25 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
     ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
     _check_resolved(e, u, points[0], ds)
     return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv, end_gap_mm)
+
+
+def blend_tables(blends: list) -> list[NurbsTable]:
+    """nurbs_table of each corner blend (a cubic or quintic Bezier, as _is_blend says; not
+    checked here: ipo.feed.pieces makes them), those of one degree in one compiled call."""
+    out: list = [None] * len(blends)
+    bad = []
+    for size in {len(e.points) for e in blends}:
+        rows = [i for i, e in enumerate(blends) if len(e.points) == size]
+        s, u, speed, t, kv, first, ok = bezier_tables(np.array([blends[i].points for i in rows], dtype=float),
+                                                      _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS, MAX_TURN_RAD,
+                                                      MAX_SPACING_MM)
+        bad += [rows[r] for r in np.flatnonzero(~ok)]
+        for r, i in enumerate(rows):
+            a, z = first[r], first[r + 1]
+            out[i] = NurbsTable(s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z], bezier=True)
+    if bad:
+        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", blends[min(bad)].line)
+    return out
 
 
 def _refine_arc(e, u: np.ndarray) -> np.ndarray:

@@ -179,6 +179,26 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
 
 
 @njit(cache=True)
+def bezier_tables(ctrl, start_per_span, rounds, max_turn_rad, max_spacing_mm):
+    """bezier_table of each Bezier ctrl[b] (B, degree + 1, 3) in one call (a build has
+    thousands): (s, u, speed, t, kv) of all, concatenated, with rows first[b]..first[b + 1]
+    those of ctrl[b], and ok per curve."""
+    n = ctrl.shape[0]
+    tables = [bezier_table(ctrl[b], start_per_span, rounds, max_turn_rad, max_spacing_mm) for b in range(n)]
+    first = np.zeros(n + 1, np.int64)
+    ok = np.empty(n, np.bool_)
+    for b in range(n):
+        first[b + 1] = first[b] + tables[b][0].shape[0]
+        ok[b] = tables[b][5]
+    m = first[n]
+    s, u, speed, t, kv = np.empty(m), np.empty(m), np.empty(m), np.empty((m, 3)), np.empty((m, 3))
+    for b in range(n):
+        a, z = first[b], first[b + 1]
+        s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z] = tables[b][0], tables[b][1], tables[b][2], tables[b][3], tables[b][4]
+    return s, u, speed, t, kv, first, ok
+
+
+@njit(cache=True)
 def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
     """Points at arc lengths s: u from the table, then three Newton steps on the arc length
     (Gauss-Legendre nodes xg, weights wg from the table sample below)."""

@@ -404,10 +404,10 @@ def test_a_motion_that_does_not_start_where_the_machine_stands_is_refused_with_i
 def test_a_builds_driver_changes_leave_the_intakes_drivers_alone():
     from ipo.feed.driver_changes import DriverChanges
     base = {0: "curve 0", 1: "curve 1"}
-    ch = DriverChanges(base, next_index=5, make_driver=lambda e: f"driver of {e}")
+    ch = DriverChanges(base, next_index=5, make_drivers=lambda es: [f"driver of {e}" for e in es])
     ch[0] = "curve 0 trimmed"
     del ch[1]
-    assert (ch.add("blend a"), ch.add("blend b")) == (5, 6)
+    assert (list(ch.add(["blend a"])), list(ch.add(["blend b"]))) == ([5], [6])
     assert ch[0] == "curve 0 trimmed" and ch[6] == "driver of blend b"
     with pytest.raises(KeyError):
         ch[1]

@@ -45,7 +45,7 @@ def corner(theta_deg: float, tol_mm: float, leg_mm: float = 10.0, feed: float = 
 
 def build_corner(ents, **kw):
     built = build([Motion(e, 0.0, -1) for e in ents], final=True, lead_trim_mm=0.0, blend_default_mm=0.0,
-                  rapid_mm_s=100.0, drivers={}, next_index=0, make_driver=_Driver, **kw)
+                  rapid_mm_s=100.0, drivers={}, next_index=0, make_drivers=lambda es: [_Driver(e) for e in es], **kw)
     return built.pieces, built.drivers.changed  # the blends it made, by index
 
 
