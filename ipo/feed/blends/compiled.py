@@ -242,18 +242,24 @@ def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
 
 
 @njit(cache=True)
+def segment_distance(q, a, b):
+    """Distance of the point q (3,) from the segment a-b."""
+    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    aq0, aq1, aq2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
+    len2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
+    f = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / len2, 0.0), 1.0) if len2 > 0 else 0.0
+    d0, d1, d2 = aq0 - f * ab0, aq1 - f * ab1, aq2 - f * ab2
+    return np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+
+
+@njit(cache=True)
 def polyline_distance(q, poly):
     """Distance of each point q (M, 3) from the polyline through poly (N, 3)."""
     out = np.empty(q.shape[0])
     for m in range(q.shape[0]):
         best = np.inf
         for i in range(poly.shape[0] - 1):
-            ab0, ab1, ab2 = poly[i + 1, 0] - poly[i, 0], poly[i + 1, 1] - poly[i, 1], poly[i + 1, 2] - poly[i, 2]
-            aq0, aq1, aq2 = q[m, 0] - poly[i, 0], q[m, 1] - poly[i, 1], q[m, 2] - poly[i, 2]
-            len2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-            f = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / len2, 0.0), 1.0) if len2 > 0 else 0.0
-            d0, d1, d2 = aq0 - f * ab0, aq1 - f * ab1, aq2 - f * ab2
-            best = min(best, np.sqrt(d0 * d0 + d1 * d1 + d2 * d2))
+            best = min(best, segment_distance(q[m], poly[i], poly[i + 1]))
         out[m] = best
     return out
 

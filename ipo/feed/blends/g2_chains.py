@@ -30,6 +30,8 @@ from math import sqrt
 import numpy as np
 from numba import njit
 
+from ipo.feed.blends.compiled import segment_distance
+
 _CURVE_POINTS = 65  # points of each quintic checked against the corner's two half moves, and its caps read from
 _SIDE_POINTS = 17  # points of each half move checked against the quintic
 # the weight of the change of curvature against the turn's in the midpoint curvatures: of 0, 1/50,
@@ -64,17 +66,6 @@ def _bezier5(ctrl, u, out_p, out_d1, out_d2):
 
 
 @njit(cache=True)
-def _segment_distance(q, a, b):
-    """Distance of point q from the segment a-b."""
-    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    aq0, aq1, aq2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
-    len2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-    f = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / len2, 0.0), 1.0) if len2 > 0 else 0.0
-    d0, d1, d2 = aq0 - f * ab0, aq1 - f * ab1, aq2 - f * ab2
-    return sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-
-
-@njit(cache=True)
 def _hermite(p_a, t_a, k_a, p_b, t_b, k_b, ctrl):
     """g2_joints.hermite_quintic into ctrl (6, 3)."""
     h = sqrt((p_b[0] - p_a[0]) ** 2 + (p_b[1] - p_a[1]) ** 2 + (p_b[2] - p_a[2]) ** 2)
@@ -97,7 +88,7 @@ def _joint(ctrl, p_a, vertex, p_b, tol, a_lim, j_lim):
     for m in range(_CURVE_POINTS):
         _bezier5(ctrl, m / (_CURVE_POINTS - 1), p, d1, d2)
         pts[m] = p
-        if min(_segment_distance(p, p_a, vertex), _segment_distance(p, vertex, p_b)) > _TOL_USE * tol:
+        if min(segment_distance(p, p_a, vertex), segment_distance(p, vertex, p_b)) > _TOL_USE * tol:
             return -1.0
         speed = sqrt(d1[0] ** 2 + d1[1] ** 2 + d1[2] ** 2)
         if not speed > 0:
@@ -121,7 +112,7 @@ def _joint(ctrl, p_a, vertex, p_b, tol, a_lim, j_lim):
                 q[c] = a[c] + f * (b[c] - a[c])
             best = np.inf
             for i in range(max(near - _SEARCH, 0), min(near + _SEARCH, _CURVE_POINTS - 1)):
-                dist = _segment_distance(q, pts[i], pts[i + 1])
+                dist = segment_distance(q, pts[i], pts[i + 1])
                 if dist < best:
                     best, near = dist, i
             if best > _TOL_USE * tol:
