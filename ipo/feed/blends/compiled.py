@@ -245,6 +245,20 @@ def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
 
 
 @njit(cache=True)
+def bezier_points_runs(ctrl, ctrl_first, s_tab, u_tab, tab_first, s, run_first, xg, wg):
+    """bezier_points_at of many blends in one call (an emission batch crosses hundreds): run r
+    is the Bezier ctrl[ctrl_first[r]:ctrl_first[r + 1]] with its table rows
+    tab_first[r]..tab_first[r + 1] of s_tab and u_tab, at the arc lengths
+    s[run_first[r]:run_first[r + 1]]."""
+    out = np.empty((s.shape[0], 3))
+    for r in range(run_first.shape[0] - 1):
+        a, z = tab_first[r], tab_first[r + 1]
+        out[run_first[r]:run_first[r + 1]] = bezier_points_at(ctrl[ctrl_first[r]:ctrl_first[r + 1]], s_tab[a:z],
+                                                              u_tab[a:z], s[run_first[r]:run_first[r + 1]], xg, wg)
+    return out
+
+
+@njit(cache=True)
 def segment_distance(q, a, b):
     """Distance of the point q (3,) from the segment a-b."""
     ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]

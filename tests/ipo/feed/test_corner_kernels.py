@@ -7,6 +7,7 @@ replaced, and the right number against an independent computation.
   minimum / max / norm expression bit for bit, NaN included;
 - polyline_distance, which skips the blocks of segments whose bounding box is farther than the
   best so far: the minimum over every segment bit for bit, and numpy's closest points;
+- bezier_points_runs (an emission batch's blends in one call): bezier_points_at blend by blend;
 - analytic.points_along_piece / point_tangent: evaluate and frame with numpy's linspace, bit for bit,
   and the points on the circle (radius, angle) by hand.
 """
@@ -16,7 +17,9 @@ import numpy as np
 import pytest
 
 from ipo.feed.analytic import Geometry, evaluate, frame, point_tangent, points_along_piece
-from ipo.feed.blends.compiled import blend_deviation, cubic_points, polyline_distance, segment_distance
+from ipo.feed.blends.compiled import (bezier_points_at, bezier_points_runs, bezier_tables, blend_deviation,
+                                      cubic_points, polyline_distance, segment_distance)
+from ipo.feed.sampling import GAUSS_W, GAUSS_X
 from ipo.feed.blends.curve_corner import _CHECK_BASIS, _bernstein3, arc_cubic
 
 RNG = np.random.default_rng(22)
@@ -106,6 +109,22 @@ def test_polyline_distance_is_the_minimum_over_every_segment():
         if k % 4 != 3:
             worst = max(worst, float(np.max(np.abs(got - _closest(q, poly)) / (1.0 + np.abs(poly).max()))))
     assert worst < 1e-13
+
+
+def test_blend_points_of_many_blends_in_one_call_are_each_blends_bits():
+    ctrls = [np.cumsum(RNG.normal(size=(n, 3)), axis=0) for n in (4, 6, 4, 4, 6)]
+    tabs = []
+    for c in ctrls:
+        s, u, _, _, _, first, ok = bezier_tables(c[None], 16, 6, 0.03, 2.0)
+        assert ok[0]
+        tabs.append((s, u))
+    arc = [np.sort(RNG.uniform(-0.1, 1.05, int(RNG.integers(1, 30)))) * s[-1] for s, _ in tabs]
+    first = lambda parts: np.cumsum([0] + [len(x) for x in parts])
+    got = bezier_points_runs(np.concatenate(ctrls), first(ctrls), np.concatenate([s for s, _ in tabs]),
+                             np.concatenate([u for _, u in tabs]), first([s for s, _ in tabs]), np.concatenate(arc),
+                             first(arc), GAUSS_X, GAUSS_W)
+    want = np.vstack([bezier_points_at(c, s, u, a, GAUSS_X, GAUSS_W) for c, (s, u), a in zip(ctrls, tabs, arc)])
+    assert got.tobytes() == want.tobytes()
 
 
 def _helix() -> Geometry:
