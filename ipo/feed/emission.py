@@ -26,7 +26,9 @@ from ipo.feed.nurbs_driver import NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
 from ipo.feed.lookahead import np_max, positions_at, sample_times
 from ipo.feed.analytic import points_along
+from ipo.feed.blends.compiled import bezier_points_runs
 from ipo.feed.pieces import KIND_BLEND, KIND_NURBS, Pieces
+from ipo.feed.sampling import GAUSS_W, GAUSS_X
 from ipo.feed.window import Window
 from ipo.interp.reference_word import quantise
 
@@ -183,11 +185,8 @@ class PeriodOutput:
         if mask.any():
             _nurbs_points(pos, loc, sv, s_prev, mask, pieces, pstart, nurbs)
         blend = np.nonzero(pieces.kind[loc] == KIND_BLEND)[0]
-        if len(blend):  # loc does not decrease: each blend's periods are one run
-            for at in np.split(blend, np.nonzero(np.diff(loc[blend]))[0] + 1):
-                p = loc[at[0]]
-                drv = nurbs[int(pieces.nurbs[p])]
-                pos[at] = drv.table.points_at(drv.entity, sv[at] - pstart[p])
+        if len(blend):
+            pos[blend] = _blend_points(loc[blend], sv[blend], pieces, pstart, nurbs)
         feed = np.diff(sv, prepend=s_prev) / self.T
         line = pieces.line[loc]
         inc, end = quantise(pos, self.blu_mm, self.blu)
@@ -216,6 +215,27 @@ class PeriodOutput:
             yield PeriodBatch(qpos, np.zeros((k, 3), np.int64), np.zeros(k),
                               np.full(k, LIMIT_DWELL, np.int8), np.full(k, line, np.int32))
             n -= k
+
+
+def _blend_points(loc: np.ndarray, sv: np.ndarray, pieces: Pieces, pstart: np.ndarray,
+                  nurbs: dict[int, NurbsDriver]) -> np.ndarray:
+    """Points of the blend pieces loc at arc lengths sv, every blend in one compiled call
+    (loc does not decrease: each blend's periods are one run)."""
+    first = np.flatnonzero(np.diff(loc, prepend=-1, append=-1))
+    ctrl, tab_s, tab_u = [], [], []
+    for p in loc[first[:-1]]:
+        drv = nurbs[int(pieces.nurbs[p])]
+        ctrl.append(drv.entity.points)
+        tab_s.append(drv.table.s)
+        tab_u.append(drv.table.u)
+    return bezier_points_runs(np.concatenate(ctrl, dtype=float), _firsts(ctrl), np.concatenate(tab_s),
+                              np.concatenate(tab_u), _firsts(tab_s), sv - pstart[loc], first, GAUSS_X,
+                              GAUSS_W)
+
+
+def _firsts(parts: list) -> np.ndarray:
+    """Where each of parts starts in their concatenation, and where the last ends."""
+    return np.cumsum([0] + [len(x) for x in parts])
 
 
 def _nurbs_points(pos, loc, sv, s_prev, mask, pieces: Pieces, pstart: np.ndarray,

@@ -80,7 +80,7 @@ class NurbsTable:
     def points_at(self, e, s: np.ndarray) -> np.ndarray:
         """Points of NURBS e at arc lengths s (see u_at)."""
         if self.bezier:  # the kernel clips s to [0, length] itself
-            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, s, _GAUSS_X, _GAUSS_W)
+            return bezier_points_at(np.asarray(e.points, dtype=float), self.s, self.u, s, GAUSS_X, GAUSS_W)
         return _derivs(e, self.u_at(e, s), 0)[0]
 
     def u_at(self, e, s: np.ndarray) -> np.ndarray:
@@ -91,7 +91,7 @@ class NurbsTable:
         h = self.s[k + 1] - self.s[k]
         q = np.divide(s - self.s[k], h, out=np.zeros_like(s), where=h > 0)
         u = self.u[k] + q * (self.u[k + 1] - self.u[k])
-        xg, wg = _GAUSS_X, _GAUSS_W
+        xg, wg = GAUSS_X, GAUSS_W
         for _ in range(3):
             du = u - self.u[k]
             uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
@@ -112,7 +112,7 @@ class NurbsTable:
         return float(self.s[-1])
 
 
-_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(5)
+GAUSS_X, GAUSS_W = np.polynomial.legendre.leggauss(5)
 
 
 def _is_bezier3(e) -> bool:

@@ -8,6 +8,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+_BLOCK = 8  # segments per bounding box in polyline_distance
+_BOX_SLACK = 1e-12  # relative to the coordinates: far above the rounding of a distance or a box
+
 
 @njit(cache=True)
 def _derivs(p, u, out_c, out_d1, out_d2):
@@ -242,6 +245,20 @@ def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
 
 
 @njit(cache=True)
+def bezier_points_runs(ctrl, ctrl_first, s_tab, u_tab, tab_first, s, run_first, xg, wg):
+    """bezier_points_at of many blends in one call (an emission batch crosses hundreds): run r
+    is the Bezier ctrl[ctrl_first[r]:ctrl_first[r + 1]] with its table rows
+    tab_first[r]..tab_first[r + 1] of s_tab and u_tab, at the arc lengths
+    s[run_first[r]:run_first[r + 1]]."""
+    out = np.empty((s.shape[0], 3))
+    for r in range(run_first.shape[0] - 1):
+        a, z = tab_first[r], tab_first[r + 1]
+        out[run_first[r]:run_first[r + 1]] = bezier_points_at(ctrl[ctrl_first[r]:ctrl_first[r + 1]], s_tab[a:z],
+                                                              u_tab[a:z], s[run_first[r]:run_first[r + 1]], xg, wg)
+    return out
+
+
+@njit(cache=True)
 def segment_distance(q, a, b):
     """Distance of the point q (3,) from the segment a-b."""
     ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
@@ -254,12 +271,44 @@ def segment_distance(q, a, b):
 
 @njit(cache=True)
 def polyline_distance(q, poly):
-    """Distance of each point q (M, 3) from the polyline through poly (N, 3)."""
+    """Distance of each point q (M, 3) from the polyline through poly (N, 3): the smallest
+    segment_distance, to the bit. The segments come in blocks of _BLOCK with their bounding
+    boxes; a block whose box lies farther from q than the best distance so far (by more than
+    the rounding of either) cannot hold the smallest and is skipped, and each point starts
+    from the block that held its predecessor's (the G2 joints measure polylines of thousands
+    of points against each other, point by point along them)."""
+    n_seg = poly.shape[0] - 1
+    n_blk = (max(n_seg, 0) + _BLOCK - 1) // _BLOCK
+    lo, hi = np.empty((n_blk, 3)), np.empty((n_blk, 3))
+    size = 0.0  # the largest coordinate: the scale of the rounding
+    for b in range(n_blk):
+        for a in range(3):
+            lo[b, a] = hi[b, a] = poly[b * _BLOCK, a]
+        for i in range(b * _BLOCK, min((b + 1) * _BLOCK, n_seg) + 1):
+            for a in range(3):
+                lo[b, a], hi[b, a] = min(lo[b, a], poly[i, a]), max(hi[b, a], poly[i, a])
+                size = max(size, abs(poly[i, a]))
     out = np.empty(q.shape[0])
+    start = 0
     for m in range(q.shape[0]):
+        qm = q[m]
+        margin = _BOX_SLACK * (1.0 + size + abs(qm[0]) + abs(qm[1]) + abs(qm[2]))
         best = np.inf
-        for i in range(poly.shape[0] - 1):
-            best = min(best, segment_distance(q[m], poly[i], poly[i + 1]))
+        first = start
+        for k in range(n_blk):
+            b = (first + k) % n_blk
+            if k > 0 and best < np.inf:
+                gap2 = 0.0
+                for a in range(3):
+                    e = max(lo[b, a] - qm[a], qm[a] - hi[b, a], 0.0)
+                    gap2 += e * e
+                if gap2 > (best + margin) ** 2:
+                    continue
+            for i in range(b * _BLOCK, min((b + 1) * _BLOCK, n_seg)):
+                d = segment_distance(qm, poly[i], poly[i + 1])
+                if d < best:
+                    best = d
+                    start = b
         out[m] = best
     return out
 

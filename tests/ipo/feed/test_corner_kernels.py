@@ -5,6 +5,9 @@ replaced, and the right number against an independent computation.
 - cubic_points: de Casteljau's construction (a different algorithm) and the Bernstein sum;
 - blend_deviation: brute-force distances to densely sampled segments, and numpy's
   minimum / max / norm expression bit for bit, NaN included;
+- polyline_distance, which skips the blocks of segments whose bounding box is farther than the
+  best so far: the minimum over every segment bit for bit, and numpy's closest points;
+- bezier_points_runs (an emission batch's blends in one call): bezier_points_at blend by blend;
 - analytic.points_along_piece / point_tangent: evaluate and frame with numpy's linspace, bit for bit,
   and the points on the circle (radius, angle) by hand.
 """
@@ -14,7 +17,9 @@ import numpy as np
 import pytest
 
 from ipo.feed.analytic import Geometry, evaluate, frame, point_tangent, points_along_piece
-from ipo.feed.blends.compiled import blend_deviation, cubic_points, polyline_distance
+from ipo.feed.blends.compiled import (bezier_points_at, bezier_points_runs, bezier_tables, blend_deviation,
+                                      cubic_points, polyline_distance, segment_distance)
+from ipo.feed.sampling import GAUSS_W, GAUSS_X
 from ipo.feed.blends.curve_corner import _CHECK_BASIS, _bernstein3, arc_cubic
 
 RNG = np.random.default_rng(22)
@@ -71,6 +76,55 @@ def test_blend_deviation_treats_nan_as_numpys_expression_did():
     assert blend_deviation(q, side, side, corner) == _numpy_form(q, side, side, corner)
     q[7, 1] = np.nan
     assert blend_deviation(q, side, side, np.zeros(3)) == _numpy_form(q, side, side, np.zeros(3))
+
+
+def _closest(q: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of each q from the polyline: the closest point of every segment, in numpy."""
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    out = []
+    for p in q:
+        f = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+        out.append(np.linalg.norm(a + f[:, None] * ab - p, axis=1).min())
+    return np.array(out)
+
+
+def test_polyline_distance_is_the_minimum_over_every_segment():
+    """Long polylines measured against each other (the G2 joints' case: the skipping matters)
+    and scattered points, at coordinates up to 500 mm: the smallest segment_distance over all
+    segments, to the bit, and numpy's closest points to rounding; a NaN point is skipped as
+    the minimum skipped it."""
+    worst = 0.0
+    for k in range(12):
+        t = np.linspace(0.0, RNG.uniform(0.5, 6.0), int(RNG.integers(2, 700)))
+        r = 10 ** RNG.uniform(-2, 2)
+        poly = np.c_[r * np.cos(t), r * np.sin(t), 0.05 * r * t] + RNG.uniform(-500, 500, 3)
+        near = poly[RNG.integers(0, len(poly), 40)] + RNG.normal(size=(40, 3)) * r * 10 ** RNG.uniform(-9, -1)
+        q = np.vstack([near, RNG.normal(size=(10, 3)) * 3 * r + poly.mean(axis=0)])
+        if k % 4 == 3:
+            poly[len(poly) // 2, 1] = np.nan
+        got = polyline_distance(q, poly)
+        every = [min([segment_distance(p, poly[i], poly[i + 1]) for i in range(len(poly) - 1)], default=np.inf,
+                     key=lambda d: (d != d, d)) for p in q]  # NaN distances lose, as in the kernel
+        assert got.tobytes() == np.array(every).tobytes()
+        if k % 4 != 3:
+            worst = max(worst, float(np.max(np.abs(got - _closest(q, poly)) / (1.0 + np.abs(poly).max()))))
+    assert worst < 1e-13
+
+
+def test_blend_points_of_many_blends_in_one_call_are_each_blends_bits():
+    ctrls = [np.cumsum(RNG.normal(size=(n, 3)), axis=0) for n in (4, 6, 4, 4, 6)]
+    tabs = []
+    for c in ctrls:
+        s, u, _, _, _, first, ok = bezier_tables(c[None], 16, 6, 0.03, 2.0)
+        assert ok[0]
+        tabs.append((s, u))
+    arc = [np.sort(RNG.uniform(-0.1, 1.05, int(RNG.integers(1, 30)))) * s[-1] for s, _ in tabs]
+    first = lambda parts: np.cumsum([0] + [len(x) for x in parts])
+    got = bezier_points_runs(np.concatenate(ctrls), first(ctrls), np.concatenate([s for s, _ in tabs]),
+                             np.concatenate([u for _, u in tabs]), first([s for s, _ in tabs]), np.concatenate(arc),
+                             first(arc), GAUSS_X, GAUSS_W)
+    want = np.vstack([bezier_points_at(c, s, u, a, GAUSS_X, GAUSS_W) for c, (s, u), a in zip(ctrls, tabs, arc)])
+    assert got.tobytes() == want.tobytes()
 
 
 def _helix() -> Geometry:
