@@ -9,13 +9,15 @@ where G does not reach the node's best cannot lower it.
 
 search     At one node: the segment whose projection holds G's minimum s*, then its neighbours outwards
            while G at their near end is below the node's best.
-sweep_ball At every node of a tile, for a ball: the segments from the one before the lowest s* of the
-           nodes the run may lower to the one after the highest, each at all 64 nodes in one loop without
-           branches (envelope.ball_slanted: the CPU's vector units take four or eight nodes at a time),
-           then a search at each node where G beyond those segments still reaches the node's best.
-           On finish_g01.nc (one batch, one thread, cycle counters) a search took about 700 cycles (its
-           branches and square roots in a chain), a node of a swept segment about 25 (5 ns in a loop of its
-           own): the group's 3.3 M searches became 0.53 M segments swept at 64 nodes and 0.14 M searches.
+sweep_ball At every node of a tile the run may lower (the rows from the first such node to the last),
+           for a ball: the segments from the one before the lowest s* of those nodes to the one after the
+           highest, each at all those nodes in one loop without branches (envelope.ball_slanted: the CPU's
+           vector units take four nodes at a time), then a search at each node where G beyond those
+           segments still reaches the node's best. On finish_g01.nc (one batch, one thread, cycle counters)
+           a search took about 700 cycles (its branches and square roots in a chain), a node of a swept
+           segment about 25 (5 ns in a loop of its own): the group's 3.3 M searches became 0.53 M segments
+           swept at 64 nodes and 0.14 M searches; sweeping every kept run, only at the rows it may lower,
+           leaves 0.16 M searches of the 1.35 M, the envelopes evaluated 55 M instead of 61 M.
 """
 from __future__ import annotations
 
@@ -91,11 +93,12 @@ def search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
     return best, idx, n
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always")
 def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
-    """Segment k (not vertical) of a ball of radius r at every node: a loop without branches (numpy's error
-    model: python's would check each division for a zero, and the loop would not vectorize; none is zero
-    here, the segment not being vertical)."""
+    """Segment k (not vertical) of a ball of radius r at every node: a loop without branches (inlined into
+    sweep_ball, whose numpy error model it takes: python's would check each division for a zero, and the
+    loop would not vectorize; none is zero here, the segment not being vertical). Inlined, not called: a
+    call counts a reference to each of its five arrays with two atomic operations."""
     x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
     for m in range(best.shape[0]):
         v = max(ball_slanted(qx[m], qy[m], x0, y0, z0, x1, y1, z1, r)[0], floor_mm)
@@ -105,7 +108,7 @@ def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
         idx[m] = k if win else by
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, idx, need):
     """need[m]: node m still needs a search after the sweep of the segments k_lo .. k_hi (none when k_hi <
     k_lo): the run may lower it (its G* wins) and s* lies beyond the swept segments' projections or G at
@@ -123,19 +126,25 @@ def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, be
         need[m] = wins(g_star[m], a, was, by) & (not (swept & left & right))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, need, counts):
     """The run's segments a .. b-1 at the nodes (qx, qy) of a tile (best, idx updated), for a ball; g_star and
     s_star: its bound's minimum and where it is reached at each node (bounds.ball_bounds); tool: (core,
     corner, floor_mm); need: scratch (a flag per node). counts: searches, envelopes evaluated (tiles.COUNTS' 1
-    and 2)."""
+    and 2). numpy's error model for _sweep_segment's divisions (inlined here)."""
     floor_mm = tool[2]
     s_lo, s_hi = np.inf, -np.inf
+    m0, m1 = best.shape[0], 0
     for m in range(best.shape[0]):
         if wins(g_star[m], a, best[m], idx[m]):
             s_lo, s_hi = min(s_lo, s_star[m]), max(s_hi, s_star[m])
+            m0, m1 = min(m0, m), m + 1
     if s_lo > s_hi:
         return
+    # only the nodes m0 .. m1-1 (the rows the run may lower, the tile's nodes being row after row), as
+    # arrays of their own: loops from 0 over them run on the vector units, loops from m0 do not
+    g_star, s_star, qx, qy, best, idx, need = (g_star[m0:m1], s_star[m0:m1], qx[m0:m1], qy[m0:m1], best[m0:m1],
+                                               idx[m0:m1], need[m0:m1])
     k_lo, k_hi = a, a - 1  # the segments swept: none where the run stands still or is slow across the tile
     if run[INV_LL] != 0.0:
         k_lo = max(segment_at(s_lo, a, b, run, pos) - SWEEP_MARGIN, a)
