@@ -333,18 +333,24 @@ def _side(e, k: int, nurbs, arcs: Pieces, start, unit, length, i: int, *, from_e
         drv = nurbs[k]
         u_corner = float(e.knots[-1] if from_end else e.knots[0])
         known: dict[float, float] = {}
+        derivs: dict[float, np.ndarray] = {}  # C, C', C'' at x: the joints ask at(x) and kv(x) alike
 
         def u_of(x):
             if x not in known:
                 known[x] = float(drv.table.u_at(drv.entity, np.array([base + sign * x]))[0])
             return known[x]
 
+        def derivs_at(x):
+            if x not in derivs:
+                derivs[x] = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 2)[:, 0]
+            return derivs[x]
+
         def at(x):
-            p, d1 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 1)[:, 0]
+            p, d1, _ = derivs_at(x)
             return p, d1 / np.linalg.norm(d1)
 
         def kv(x):  # the curvature vector (d2 - (d2.t) t) / |d1|^2
-            _, d1, d2 = nk.curve_derivs(e.degree, e.knots, e.weights, e.points, np.array([u_of(x)]), 2)[:, 0]
+            _, d1, d2 = derivs_at(x)
             t = d1 / np.linalg.norm(d1)
             return (d2 - np.dot(d2, t) * t) / np.dot(d1, d1)
 

@@ -95,10 +95,11 @@ class NurbsTable:
         for _ in range(3):
             du = u - self.u[k]
             uu = self.u[k][:, None] + 0.5 * du[:, None] * (xg[None, :] + 1)
-            sp = np.linalg.norm(_derivs(e, uu.ravel(), 1)[1],
-                                axis=1).reshape(uu.shape)
+            # the Gauss nodes and u in one evaluation (each point's derivative is its own)
+            d1_norm = np.linalg.norm(_derivs(e, np.concatenate([uu.ravel(), u]), 1)[1], axis=1)
+            sp = d1_norm[:uu.size].reshape(uu.shape)
             s_u = self.s[k] + 0.5 * du * (sp @ wg)
-            speed = np.linalg.norm(_derivs(e, u, 1)[1], axis=1)
+            speed = d1_norm[uu.size:]
             u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
         return u
 

@@ -188,10 +188,12 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
                for c in chains]
     report.sharp_vertices = sum(len(sharp_of(c, o)) for c, o in zip(chains, options))
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
-    for chain, spans in zip(chains, _plan_all(planner, chains, options, jobs)):
+    plans = _map(planner, chains, options, jobs=jobs)
+    writer = g52_text if dialect == "g5.2" else group_text
+    written = _written_all(chains, plans, [frames[c.moves[0].line] for c in chains], tol_mm, writer, walkable, jobs)
+    for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
-        new, last_is_group = _convert_chain(chain, spans, lines, frame, tol_mm, report,
-                                            g52_text if dialect == "g5.2" else group_text, walkable)
+        new, last_is_group = _convert_chain(chain, spans, groups, lines, frame, report)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
@@ -247,29 +249,67 @@ def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_
     return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
 
 
-def _plan_all(planner, chains: list[Chain], options: list[FitOptions], jobs: int | None) -> list[list[Span]]:
-    """planner (plan_chain or plan_chain_conic) on every chain, in worker processes where there is more than one core to use
-    (each chain's fit is independent of the others; results come back in order)."""
+def _map(fn, *items: list, jobs: int | None) -> list:
+    """fn over the items in order, in worker processes where there is more than one core to use and
+    enough items to share (each call is independent of the others)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise IpoError(FIT_SETTINGS, f"jobs must be >= 1, got {jobs}")
-    if jobs == 1 or len(chains) < 2 * jobs:
-        return [planner(c, o) for c, o in zip(chains, options)]
+    if jobs == 1 or len(items[0]) < 2 * jobs:
+        return [fn(*args) for args in zip(*items)]
+    # a few chunks per worker: sizes vary (one chain can hold most of a program), and tiny tasks one by
+    # one would cost more in hand-overs than they do to run
+    chunk = max(1, len(items[0]) // (8 * jobs))
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(planner, chains, options, chunksize=1))
+        return list(pool.map(fn, *items, chunksize=chunk))
 
 
-def _convert_chain(chain: Chain, spans: list[Span], lines: list[str], frame: Frame, tol_mm: float,
-                   report: ConvertReport, writer, walkable) -> tuple[list[str] | None, bool]:
-    """New text for one chain from its spans (None if it stays as it is), and whether it ends in a group."""
-    digits = coordinate_digits(tol_mm, frame.unit_mm)
+@dataclass(frozen=True, slots=True)
+class _Written:
+    """A fitted span as written: its blocks, the curve's deviation as written, and the verdicts on it."""
+
+    text: list[str]
+    deviation_mm: float
+    off: bool  # beyond the tolerance once rounded
+    refused: str | None  # why the controller cannot follow it (walkable), or None
+
+
+def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame], tol_mm: float, writer,
+                 walkable, jobs: int | None) -> list[list[_Written | None]]:
+    """Every fitted span written out (None where it is kept): STEP 1 write it and measure the curve as
+    written; STEP 2 the controller's check of those within tol, in the worker pool (the check builds the
+    arc-length tables of the run itself, most of a fit's time on dense real programs)."""
+    cands = []  # (chain index, span index, text, curve as written (None: off), deviation)
+    for i, (chain, spans, frame) in enumerate(zip(chains, plans, frames)):
+        digits = coordinate_digits(tol_mm, frame.unit_mm)
+        for j, span in enumerate(spans):
+            if span.fit is None:
+                continue
+            moves = chain.moves[span.first:span.last]
+            feed = _group_feed(chain, span)
+            text, written = writer(span.fit, feed, frame, digits)
+            dev = written_deviation_mm(written, span.data) + (chain.sag_mm if any(isinstance(m, Arc) for m in moves)
+                                                               else 0.0)
+            cands.append((i, j, text, Nurbs(moves[0].line, written.degree, written.knots, written.weights,
+                                            written.points, feed) if dev <= tol_mm else None, dev))
+    tested = [c for c in cands if c[3] is not None and walkable is not None]
+    verdicts = dict(zip(((c[0], c[1]) for c in tested), _map(walkable, [c[3] for c in tested], jobs=jobs)))
+    out: list[list[_Written | None]] = [[None] * len(spans) for spans in plans]
+    for i, j, text, _, dev in cands:
+        out[i][j] = _Written(text, dev, dev > tol_mm, verdicts.get((i, j)))
+    return out
+
+
+def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None], lines: list[str], frame: Frame,
+                   report: ConvertReport) -> tuple[list[str] | None, bool]:
+    """New text for one chain from its spans and their groups as written (None if it stays as it is), and
+    whether it ends in a group."""
     out: list[str] = []
     after_group = any_group = False
     group_feed = 0.0
-    for span in spans:
+    for span, written in zip(spans, groups):
         moves = chain.moves[span.first:span.last]
-        group = _group_for(span, moves, _group_feed(chain, span), frame, digits, tol_mm, chain.sag_mm, report,
-                           writer, walkable) if span.fit is not None else None
+        group = _group_for(written, moves[0].line, report) if written is not None else None
         if group is None:
             src = [lines[m.line - 1] for m in moves]
             if after_group:  # pure blocks: G1/G2/G3 or none; the program's feed if the group wrote another
@@ -298,17 +338,13 @@ def _group_feed(chain: Chain, span: Span) -> float:
     return min(m.feed_mm_s for m in chain.moves[span.first:span.last])
 
 
-def _group_for(span: Span, moves, feed_mm_s, frame, digits, tol_mm, sag_mm, report, writer,
-               walkable) -> list[str] | None:
-    text, written = writer(span.fit, feed_mm_s, frame, digits)
-    dev = written_deviation_mm(written, span.data) + (sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0)
-    if dev > tol_mm:
-        report.kept_g01.append((moves[0].line, f"rounded curve {dev * 1e3:.3f} um off"))
+def _group_for(written: _Written, line: int, report: ConvertReport) -> list[str] | None:
+    """The group's blocks, or None where the curve as written is off or the controller refuses it (and why)."""
+    if written.off:
+        report.kept_g01.append((line, f"rounded curve {written.deviation_mm * 1e3:.3f} um off"))
         return None
-    if walkable is not None:
-        why = walkable(Nurbs(moves[0].line, written.degree, written.knots, written.weights, written.points, feed_mm_s))
-        if why is not None:
-            report.kept_g01.append((moves[0].line, f"{REFUSED}: {why}"))
-            return None
-    report.max_deviation_mm = max(report.max_deviation_mm, dev)
-    return text
+    if written.refused is not None:
+        report.kept_g01.append((line, f"{REFUSED}: {written.refused}"))
+        return None
+    report.max_deviation_mm = max(report.max_deviation_mm, written.deviation_mm)
+    return written.text

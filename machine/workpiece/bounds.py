@@ -92,11 +92,12 @@ def bound_plane(qx, qy, run):
     return g - run[DROP], slope * px / rho, slope * py / rho, True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_out, s_out):
     """(G*, s*) of a ball run at the ni x nj nodes (origin + (i0 + i, j0 + j) g), row by row into g_out and
     s_out: envelope.env_ball's closed form (the cylinder's root, clamped to the line's ends) without
-    branches, so that the loop runs on the CPU's vector units."""
+    branches, so that the loop runs on the CPU's vector units (numpy's error model: no check of each
+    division for a zero, which would keep the loop scalar; no divisor here is zero)."""
     r = run[CORNER]
     r2 = r * r
     ax, ay, az, bx, by, bz = run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ]
@@ -114,7 +115,8 @@ def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_ou
         c = (pp - r2) * l2 - k * k
         disc = b * b - a * c
         sq = math.sqrt(max(disc, 0.0))
-        zl = -(b + sq) / a if b > 0.0 else c / max(sq - b, 1e-300) if sq - b > 0.0 else -b / a
+        rising = sq - b > 0.0  # one division of the three cases' (selects compute every case's operands)
+        zl = (-(b + sq) if b > 0.0 else c if rising else -b) / (a if b > 0.0 else max(sq - b, 1e-300) if rising else a)
         t = min(max((k + zl * dz) / l2, 0.0), 1.0)
         ex, ey = px - t * dx, py - t * dy
         w = r2 - (ex * ex + ey * ey)

@@ -26,15 +26,13 @@ BISECTIONS = 32  # halvings of the covering interval: t to 2e-10 of it, where g 
 TINY_MM2 = 1e-18  # squared horizontal step below which a segment is vertical (below 1 nm)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def profile_mm(rho, core, corner):
-    """h(rho); inf outside the tool."""
-    if rho <= core:
-        return 0.0
+    """h(rho); inf outside the tool. Selects, not branches: a loop of it over nodes runs on the CPU's
+    vector units (search._unfinished)."""
     d = rho - core
-    if d > corner:
-        return np.inf
-    return corner - math.sqrt(max(corner * corner - d * d, 0.0))
+    h = corner - math.sqrt(max(corner * corner - d * d, 0.0))
+    return 0.0 if rho <= core else np.inf if d > corner else h
 
 
 @njit(cache=True)

@@ -106,10 +106,29 @@ def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
 
 
 @njit(cache=True)
-def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, counts):
+def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, idx, need):
+    """need[m]: node m still needs a search after the sweep of the segments k_lo .. k_hi (none when k_hi <
+    k_lo): the run may lower it (its G* wins) and s* lies beyond the swept segments' projections or G at
+    their ends still wins (G convex: no lower beyond its ends than there, if s* lies between them). A
+    loop without branches (wins' operators, bound_line's selects), for the vector units."""
+    swept = k_hi >= k_lo
+    s_left, s_right = proj(pos, k_lo, run), proj(pos, k_hi + 1, run)
+    first, last = k_lo == a, k_hi == b - 1
+    for m in range(best.shape[0]):
+        was, by = best[m], idx[m]
+        g_left = bound_line(qx[m], qy[m], s_left, run, floor_mm)
+        g_right = bound_line(qx[m], qy[m], s_right, run, floor_mm)
+        left = first | ((s_star[m] >= s_left) & (not wins(g_left, a, was, by)))
+        right = last | ((s_star[m] <= s_right) & (not wins(g_right, k_hi + 1, was, by)))
+        need[m] = wins(g_star[m], a, was, by) & (not (swept & left & right))
+
+
+@njit(cache=True)
+def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, need, counts):
     """The run's segments a .. b-1 at the nodes (qx, qy) of a tile (best, idx updated), for a ball; g_star and
     s_star: its bound's minimum and where it is reached at each node (bounds.ball_bounds); tool: (core,
-    corner, floor_mm). counts: searches, envelopes evaluated (tiles.COUNTS' 1 and 2)."""
+    corner, floor_mm); need: scratch (a flag per node). counts: searches, envelopes evaluated (tiles.COUNTS' 1
+    and 2)."""
     floor_mm = tool[2]
     s_lo, s_hi = np.inf, -np.inf
     for m in range(best.shape[0]):
@@ -131,19 +150,10 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, c
             for m in range(best.shape[0]):
                 best[m], idx[m] = try_segment(qx[m], qy[m], k, best[m], idx[m], pos, tool, stamp)
     counts[2] += (k_hi - k_lo + 1) * best.shape[0]
-    swept = k_hi >= k_lo
-    s_left, s_right = proj(pos, k_lo, run), proj(pos, k_hi + 1, run)
+    _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, idx, need)
     for m in range(best.shape[0]):
-        if not wins(g_star[m], a, best[m], idx[m]):
-            continue
-        if swept:  # G convex: beyond the swept segments no lower than at their ends, if s* lies between them
-            left = k_lo == a or (s_star[m] >= s_left
-                                 and not wins(bound_line(qx[m], qy[m], s_left, run, floor_mm), a, best[m], idx[m]))
-            right = k_hi == b - 1 or (s_star[m] <= s_right and not wins(bound_line(qx[m], qy[m], s_right, run,
-                                                                                   floor_mm), k_hi + 1, best[m],
-                                                                        idx[m]))
-            if left and right:
-                continue
-        best[m], idx[m], evaluated = search((qx[m], qy[m]), s_star[m], best[m], idx[m], a, b, run, pos, tool, stamp)
-        counts[1] += 1
-        counts[2] += evaluated
+        if need[m]:
+            best[m], idx[m], evaluated = search((qx[m], qy[m]), s_star[m], best[m], idx[m], a, b, run, pos, tool,
+                                                stamp)
+            counts[1] += 1
+            counts[2] += evaluated

@@ -225,16 +225,10 @@ def test_scurve_mode_keeps_jerk_at_interior_corners(name, mode):
     run_scurve([curve(name, MODES[mode])])
 
 
-def test_arc_length_readback_against_quadrature():
-    """The table's s(u), through which the driver reads the stepper's position back, against
-    scipy's adaptive quadrature of |C'(u)| (evaluated by scipy's BSpline), on a rational
-    cubic whose parametric speed varies a lot: within 1e-6 mm everywhere."""
-    from scipy.integrate import quad
+def _scipy_speed(e):
+    """|C'(u)| of the rational curve e by scipy's BSpline in homogeneous coordinates."""
     from scipy.interpolate import BSpline
 
-    from ipo.feed.sampling import nurbs_table
-
-    e = corner_parts(random_c0_curve(71, G64P))[0]
     w = np.asarray(e.weights, float)
     spl = BSpline(np.asarray(e.knots, float), np.column_stack([e.points * w[:, None], w]), e.degree)
     dspl = spl.derivative()
@@ -243,11 +237,43 @@ def test_arc_length_readback_against_quadrature():
         h, dh = spl(u), dspl(u)
         return np.linalg.norm((dh[:3] * h[3] - h[:3] * dh[3]) / h[3] ** 2)
 
+    return speed
+
+
+def test_arc_length_readback_against_quadrature():
+    """The table's s(u), through which the driver reads the stepper's position back, against
+    scipy's adaptive quadrature of |C'(u)| (evaluated by scipy's BSpline), on a rational
+    cubic whose parametric speed varies a lot: within 1e-6 mm everywhere."""
+    from scipy.integrate import quad
+
+    from ipo.feed.sampling import nurbs_table
+
+    e = corner_parts(random_c0_curve(71, G64P))[0]
+    speed = _scipy_speed(e)
     tab = nurbs_table(e)
     u = np.linspace(e.knots[0], e.knots[-1], 41)
     exact = np.cumsum([0.0] + [quad(speed, a, b, epsabs=1e-13, epsrel=1e-13, limit=200)[0]
                                for a, b in zip(u[:-1], u[1:])])
     assert np.abs(np.array([tab.s_of_u(x) for x in u]) - exact).max() <= 1e-6
+
+
+def test_u_at_arc_lengths_against_quadrature():
+    """NurbsTable.u_at (the corner blends and joints trim a NURBS by arc length through it):
+    at 23 arc lengths, the quadrature of |C'| (scipy's BSpline, scipy's quad) from the curve's
+    start to the u found is the arc length asked for, within 1e-6 mm."""
+    from scipy.integrate import quad
+
+    from ipo.feed.sampling import nurbs_table
+
+    e = corner_parts(random_c0_curve(72, G64P))[0]
+    speed = _scipy_speed(e)
+    tab = nurbs_table(e)
+    s = np.linspace(0.0, tab.length, 23)
+    u = tab.u_at(e, s)
+    knots = np.unique(e.knots)
+    got = [sum(quad(speed, a, min(b, x), epsabs=1e-13, epsrel=1e-13, limit=200)[0]
+               for a, b in zip(knots[:-1], knots[1:]) if a < x) for x in u]
+    assert np.all(np.diff(u) > 0) and np.abs(np.array(got) - s).max() <= 1e-6
 
 
 @pytest.mark.parametrize("path", [EXACT_STOP, G64P0, G64P])

@@ -142,18 +142,45 @@ def test_feeds_beyond_the_machines_reach_share_a_group_and_the_programs_feed_com
     assert convert_text(src, 0.01, reach_mm_s=0.0)[1].chains == 2  # merging off
 
 
-def test_worker_processes_give_the_same_program():
-    # several runs (a feed change ends each), fitted in two worker processes and in this one
+def _six_runs() -> str:
+    """Six half-ellipse runs at Z -1..-6 (around which Z wobbles by 0.3 mm); a feed change ends each."""
     runs = []
     for k in range(6):
         pts, words = _ellipse_run(n=60, z=-1.0 - k)
         runs += [f"G1 {words[0]} F{3000 + k}"] + words[1:]
-    src = "\n".join(["G21 G90 G17", "G0 X12 Y0 Z-1", *runs, "M2", ""])
+    return "\n".join(["G21 G90 G17", "G0 X12 Y0 Z-1", *runs, "M2", ""])
+
+
+def test_worker_processes_give_the_same_program():
+    # several runs, fitted in two worker processes and in this one
+    src = _six_runs()
     one, rep1 = convert_text(src, 0.01, jobs=1)
     two, rep2 = convert_text(src, 0.01, jobs=2)
     assert rep1.groups >= 6 and one == two and rep1.max_deviation_mm == rep2.max_deviation_mm
     with pytest.raises(ValueError):
         convert_text(src, 0.01, jobs=0)
+
+
+def _refuse_below_z3(curve: Nurbs) -> str | None:
+    """A stand-in for the controller's check (module level: the worker processes call it too)."""
+    return "below Z-3.5" if curve.points[:, 2].max() < -3.5 else None
+
+
+def test_controller_check_in_worker_processes_keeps_the_groups_it_refuses():
+    # the check refuses the three lowest runs: they stay G1, whether the checks run in two worker
+    # processes or in this one
+    src = _six_runs()
+    one, rep1 = convert_text(src, 0.01, jobs=1, walkable=_refuse_below_z3)
+    two, rep2 = convert_text(src, 0.01, jobs=2, walkable=_refuse_below_z3)
+    assert one == two and rep1.kept_g01 == rep2.kept_g01
+    refused = [line for line, why in rep2.kept_g01 if why.endswith("below Z-3.5")]
+    assert len(refused) == 3 and rep2.groups == 3
+    after = parse_text(two).entities
+    z_nurbs = [e.points[:, 2] for e in after if isinstance(e, Nurbs)]
+    assert len(z_nurbs) == 3 and min(z.max() for z in z_nurbs) > -3.5
+    # the refused runs are the source's moves, line for line
+    kept = [raw for raw in two.split("\n") if raw.startswith("X")]
+    assert kept == [w for w in src.split("\n")[2:] if w.startswith("X") and float(w.split("Z")[1]) < -3.4]
 
 
 def test_bad_input():
