@@ -28,9 +28,14 @@ _STANDSTILL_V = 1e-6
 # its share of the jerk) rather than as a segment of its own with zero acceleration at both
 # ends (a polyline's micron remnants between blends)
 STRAIGHT_MIN_MM = 0.5
-# the share of the axis jerk a curved gap is taken to keep when judging how far before a
-# window's end its plan still depends on what follows (a longer reach commits less)
+# the shares of the axis jerk and acceleration a curved gap is taken to keep when judging how far
+# before a window's end its plan still depends on what follows (a longer reach commits less). On
+# a curve near v^2 kappa = A the tangential share is small: with the whole acceleration,
+# g1_lhchips4's fitted chains (ipo.feed.blends.chain_fit) committed 115 mm/s where braking to a
+# curve 10 mm on, under the curvature's share of the axes, could not start in time (line 4331:
+# no jerk-limited profile); half of it plans the same cycle there
 REACH_JERK_SHARE = 0.5
+REACH_ACC_SHARE = 0.5
 
 
 class Segments(NamedTuple):
@@ -55,7 +60,8 @@ def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float, lin
 def stop_reach_mm(v_top: float, a_axis: np.ndarray, j_axis: np.ndarray) -> float:
     """Path length in which the machine stops from v_top with the smallest path limits a curve
     leaves it: how far before a window's end its plan still depends on what follows."""
-    return transition_distance(v_top, 0.0, float(a_axis.min()), REACH_JERK_SHARE * float(j_axis.min())) + 1e-3
+    return transition_distance(v_top, 0.0, REACH_ACC_SHARE * float(a_axis.min()),
+                               REACH_JERK_SHARE * float(j_axis.min())) + 1e-3
 
 
 def period_limits(sv: np.ndarray, s_prev: float, period_s: float, s: np.ndarray, cap: np.ndarray,

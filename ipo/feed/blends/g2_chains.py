@@ -8,12 +8,14 @@ v^2 |dk| <= J T / STEP_JERK_SHARE, then hold the machine far below the curve's o
 
 Here each corner of such a run (turns below CHAIN_MAX_RAD) is replaced by the G2 Hermite quintic
 (ipo.feed.blends.g2_joints.hermite_quintic) from the midpoint of the move before it to the midpoint
-of the move after it, and every such midpoint gets one curvature vector, shared by the two quintics
-that meet there, fitted over the run (_midpoint_curvatures; about 1 / R on a polyline inscribed in
-a circle of radius R). The run becomes one curve whose curvature follows the polyline's,
-continuous and without a return to 0 at each move. A midpoint next to a corner outside the run
-(or on a move whose other corner is not known yet, the window's held-back move) gets curvature 0,
-as the line-line quintic ends, so the run meets whatever blends its ends.
+of the move after it, both as the run's smoothing fit within P moved them, with its tangents there
+(ipo.feed.blends.chain_fit), and every such midpoint gets one curvature vector, shared by the two
+quintics that meet there, fitted over the run (_midpoint_curvatures; about 1 / R on a polyline
+inscribed in a circle of radius R). The run becomes one curve whose curvature follows the fitted
+polyline's, continuous and without a return to 0 at each move. A midpoint next to a corner outside
+the run (or on a move whose other corner is not known yet, the window's held-back move) keeps its
+place and gets curvature 0, as the line-line quintic ends, so the run meets whatever blends its
+ends.
 
 A run is chained where one of its corners' own blends holds the machine below the programmed feed
 (chain_runs). A corner stays in it only while its quintic keeps within P of the programmed corner
@@ -30,6 +32,7 @@ from math import sqrt
 import numpy as np
 from numba import njit
 
+from ipo.feed.blends.chain_fit import FIT_SHARE, SMOOTH_MM, fitted_midpoints
 from ipo.feed.blends.compiled import segment_distance
 
 _CURVE_POINTS = 65  # points of each quintic checked against the corner's two half moves, and its caps read from
@@ -180,20 +183,22 @@ def _midpoint_curvatures(unit, length, chain):
 
 
 @njit(cache=True)
-def _check(start, unit, length, chain, tol, a_lim, j_lim, ctrl, x):
-    """Midpoint curvatures of the run `chain` (corner j joins moves j and j + 1) and each chain
-    corner's quintic into ctrl (J, 6, 3) and its cap into x (-1: outside P)."""
+def _check(start, unit, length, mid, tangent, chain, tol, a_lim, j_lim, ctrl, x):
+    """Midpoint curvatures of the run `chain` (corner j joins moves j and j + 1) from the fitted
+    midpoints' tangents (ipo.feed.blends.chain_fit) and each chain corner's quintic, from fitted
+    midpoint to midpoint, into ctrl (J, 6, 3), and its cap into x (-1: outside P of the
+    programmed corner)."""
     n = length.shape[0]
-    kmid = _midpoint_curvatures(unit, length, chain)
+    kmid = _midpoint_curvatures(tangent, length, chain)
     p_a, p_b, vertex = np.empty(3), np.empty(3), np.empty(3)
     for j in range(n - 1):
         if not chain[j]:
             continue
+        _hermite(mid[j], tangent[j], kmid[j], mid[j + 1], tangent[j + 1], kmid[j + 1], ctrl[j])
         for a in range(3):
             vertex[a] = start[j + 1, a]
             p_a[a] = vertex[a] - 0.5 * length[j] * unit[j, a]
             p_b[a] = vertex[a] + 0.5 * length[j + 1] * unit[j + 1, a]
-        _hermite(p_a, unit[j], kmid[j], p_b, unit[j + 1], kmid[j + 1], ctrl[j])
         x[j] = _joint(ctrl[j], p_a, vertex, p_b, tol[j], a_lim, j_lim)
 
 
@@ -221,7 +226,8 @@ def g2_chains(start: np.ndarray, unit: np.ndarray, length: np.ndarray, candidate
     ctrl = np.zeros((len(chain), 6, 3))
     x = np.full(len(chain), -1.0)
     while True:  # each round drops at least one corner
-        _check(start, unit, length, chain, tol_mm, a_mm_s2, j_mm_s3, ctrl, x)
+        mid, tangent = fitted_midpoints(start, unit, length, chain, tol_mm, FIT_SHARE, SMOOTH_MM**6)
+        _check(start, unit, length, mid, tangent, chain, tol_mm, a_mm_s2, j_mm_s3, ctrl, x)
         drop = chain & ~(x >= x_min)
         if not drop.any():
             return chain, ctrl
