@@ -288,8 +288,8 @@ def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Fram
             moves = chain.moves[span.first:span.last]
             feed = _group_feed(chain, span)
             text, written = writer(span.fit, feed, frame, digits)
-            dev = written_deviation_mm(written, span.data) + (chain.sag_mm if any(isinstance(m, Arc) for m in moves)
-                                                               else 0.0)
+            sag = chain.sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
+            dev = written_deviation_mm(written, span.data, tol_mm - sag) + sag
             cands.append((i, j, text, Nurbs(moves[0].line, written.degree, written.knots, written.weights,
                                             written.points, feed) if dev <= tol_mm else None, dev))
     tested = [c for c in cands if c[3] is not None and walkable is not None]

@@ -13,7 +13,15 @@ both in path order:
 
 Both can only overstate the distance, so a curve accepted here is within the bound;
 the walks assume the curve follows the path's order, which a fitted piece does (a
-walk that loses its place overstates, it never understates).
+walk that loses its place overstates, it never understates). A path that comes back
+along itself (a V-carving's out-and-back strokes, a Z-only dip and lift at one XY)
+can lose a walk its place: a later pass lies as near as the right one, the walk takes
+it and cannot come back. So a point whose walked bound is above `exact_above_mm` (the
+tolerance the caller tests) is measured against every segment (every chord, plus its
+gap), which is the exact distance (the same bound) and never more than the walk's,
+and the walk goes on from the segment found. On LinuxCNC's Pasta.ngc (a VCarve
+program) a group within 8.6 um both ways (brute force) was bounded at 20,302 um by
+the walks alone.
 """
 from __future__ import annotations
 
@@ -63,14 +71,31 @@ def walk(p0, p1, p2, pts, n, j):
 
 
 @njit(cache=True)
-def two_way_mm(samples, gap_mm, path):
+def nearest(p0, p1, p2, pts, n, gap):
+    """Smallest distance from (p0, p1, p2) to a chord pts[i] pts[i+1] plus gap[i], over every chord; and where."""
+    best = np.inf
+    at = 0
+    for i in range(n - 1):
+        d = np.sqrt(seg_dist2(p0, p1, p2, pts, i)) + gap[i]
+        if d < best:
+            best, at = d, i
+    return best, at
+
+
+@njit(cache=True)
+def two_way_mm(samples, gap_mm, path, exact_above_mm):
     """The bound of the module doc: samples (m, 3) of the curve in order, gap_mm (m - 1,) each
-    chord's gap to the curve, path (n, 3) the polyline."""
+    chord's gap to the curve, path (n, 3) the polyline; a walked bound above exact_above_mm (and
+    above the worst so far) is measured against every segment instead."""
     worst = 0.0
     j = 0
     n_s, n_p = samples.shape[0], path.shape[0]
+    flat = np.zeros(max(n_p - 1, 1))
     for i in range(n_s):
-        d, j = walk(samples[i, 0], samples[i, 1], samples[i, 2], path, n_p, j)
+        d2, j = walk(samples[i, 0], samples[i, 1], samples[i, 2], path, n_p, j)
+        d = np.sqrt(d2)
+        if d > exact_above_mm and d > worst:
+            d, j = nearest(samples[i, 0], samples[i, 1], samples[i, 2], path, n_p, flat)
         worst = max(worst, d)
     j = 0
     for k in range(n_p):
@@ -81,10 +106,13 @@ def two_way_mm(samples, gap_mm, path):
             parts = max(1, int(np.ceil(np.sqrt(s0 * s0 + s1 * s1 + s2 * s2) / DENSE_SPACING_MM)))
         for m in range(parts):
             f = m / parts
-            d, j = walk(path[k, 0] + f * s0, path[k, 1] + f * s1, path[k, 2] + f * s2, samples, n_s, j)
-            d = np.sqrt(d) + gap_mm[j]
-            worst = max(worst, d * d)
-    return np.sqrt(worst)
+            x0, x1, x2 = path[k, 0] + f * s0, path[k, 1] + f * s1, path[k, 2] + f * s2
+            d2, j = walk(x0, x1, x2, samples, n_s, j)
+            d = np.sqrt(d2) + gap_mm[j]
+            if d > exact_above_mm and d > worst:
+                d, j = nearest(x0, x1, x2, samples, n_s, gap_mm)
+            worst = max(worst, d)
+    return worst
 
 
 def curve_samples(fit: RationalFit) -> tuple[np.ndarray, np.ndarray]:
@@ -113,7 +141,8 @@ def _chord_gap(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.norm(x - (a + t[:, None] * ab), axis=1)
 
 
-def written_deviation_mm(fit: RationalFit, path: np.ndarray) -> float:
-    """Upper bound of the two-way distance between the curve and the polyline `path`."""
+def written_deviation_mm(fit: RationalFit, path: np.ndarray, exact_above_mm: float = np.inf) -> float:
+    """Upper bound of the two-way distance between the curve and the polyline `path` (points whose walked
+    bound is above exact_above_mm, the caller's tolerance, are measured exactly: see the module doc)."""
     samples, gaps = curve_samples(fit)
-    return float(two_way_mm(samples, gaps, np.ascontiguousarray(path, dtype=float)))
+    return float(two_way_mm(samples, gaps, np.ascontiguousarray(path, dtype=float), exact_above_mm))
