@@ -8,6 +8,7 @@ never machine/:
 | `ipo.config` | the machine file (TOML -> MachineConfig); `ipo/machine.toml` is the documented default; `ipo.config_values` its ranges and value checks; `ipo.grbl_settings` grbl's `$$` for the grbl twin; `ipo.linuxcnc_ini` a LinuxCNC INI file for the LinuxCNC twin | — |
 | `ipo.roughness` | 002's surface-roughness model of ball-end finishing (read by the machine-file check and the feed limiter) | 002 eq. 1–6 |
 | `ipo.contracts` | what every stage shares: the stepper contract (`Steps`) and the period stream (`PeriodBatch`, `LIMIT_*`) | 000 §2.2 |
+| `ipo.segments` | the distance of a point from a segment, one compiled kernel for the rooms that measure deviations from polylines | — |
 | `ipo.nurbs` | the NURBS kernel: vectorised evaluation, the compiled per-period form, sub-curves | 000 eq. 1–4 |
 | `ipo.interp` | constant-chord interpolation: recursive, Taylor, constant du, line/arc steppers, reference word and pulse, the chord study | 000 eq. 7–16, 002 eq. 7 |
 | `ipo.feed` | the feed stage: pieces and corner blends, samples, limits (002's roughness limiter), look-ahead, S-curve, period output, the planner; the controller twins beside it (`grbl_twin/`, `linuxcnc_twin/`) and the registry that picks one (`profiles`) | 002 eq. 1–6 |

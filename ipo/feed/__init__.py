@@ -36,5 +36,5 @@ machine stands).
   the same interface; `profiles`: the machine file's `planner` -> its plan_periods
   (ipo.config.PLANNERS).
 
-May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.segments, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

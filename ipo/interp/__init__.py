@@ -11,5 +11,5 @@
 - `reference_pulse`: unit pulses by the 0.5 BLU rule (000 §2.4).
 - `chord_study`: `vcnc interp`'s study at a constant chord (000 §3, Fig. 7–9).
 
-May import: ipo.contracts, ipo.errors, ipo.nurbs, ipr.entities, numpy, numba.
+May import: ipo.contracts, ipo.errors, ipo.segments, ipo.nurbs, ipr.entities, numpy, numba.
 """

@@ -23,6 +23,7 @@ from numba import njit
 
 from ipo.errors import STUDY, IpoError
 from ipo.interp.reference_word import checked_points
+from ipo.segments import segment_distance
 
 
 @njit(cache=True)
@@ -89,18 +90,6 @@ def pulse_path(start_blu: np.ndarray, steps: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- deviation from the curve
 
 @njit(cache=True)
-def _seg_dist(q, a, b):
-    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    aq0, aq1, aq2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
-    ll = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-    t = 0.0
-    if ll > 0.0:
-        t = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / ll, 0.0), 1.0)
-    d0, d1, d2 = aq0 - t * ab0, aq1 - t * ab1, aq2 - t * ab2
-    return np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-
-
-@njit(cache=True)
 def _cell_key(c, lo, dims):
     return (c[0] - lo[0]) + dims[0] * ((c[1] - lo[1]) + dims[1] * (c[2] - lo[2]))
 
@@ -131,7 +120,7 @@ def _dist_to_curve(q, curve, keys, order, lo, dims, cell, max_seg):
                     s1 = np.searchsorted(keys, key, side="right")
                     for s in range(s0, s1):
                         seg = order[s]
-                        d = _seg_dist(q, curve[seg], curve[seg + 1])
+                        d = segment_distance(q, curve[seg], curve[seg + 1])
                         if d < best:
                             best = d
         if best <= r * cell - max_seg:

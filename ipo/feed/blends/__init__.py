@@ -10,5 +10,5 @@
   moves trimmed and joined by the quintic matching point, tangent and curvature (S-curve mode).
 - `compiled`: numba arc-length tables, points and frames of the Bezier blends; point-to-polyline distances.
 
-May import: ipo.nurbs, ipr.entities, numpy, numba (not ipo.feed's other modules).
+May import: ipo.segments, ipo.nurbs, ipr.entities, numpy, numba (not ipo.feed's other modules).
 """

@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ipo.segments import segment_distance
+
 _BLOCK = 8  # segments per bounding box in polyline_distance
 _BOX_SLACK = 1e-12  # relative to the coordinates: far above the rounding of a distance or a box
 
@@ -256,17 +258,6 @@ def bezier_points_runs(ctrl, ctrl_first, s_tab, u_tab, tab_first, s, run_first, 
         out[run_first[r]:run_first[r + 1]] = bezier_points_at(ctrl[ctrl_first[r]:ctrl_first[r + 1]], s_tab[a:z],
                                                               u_tab[a:z], s[run_first[r]:run_first[r + 1]], xg, wg)
     return out
-
-
-@njit(cache=True)
-def segment_distance(q, a, b):
-    """Distance of the point q (3,) from the segment a-b."""
-    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    aq0, aq1, aq2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
-    len2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-    f = min(max((aq0 * ab0 + aq1 * ab1 + aq2 * ab2) / len2, 0.0), 1.0) if len2 > 0 else 0.0
-    d0, d1, d2 = aq0 - f * ab0, aq1 - f * ab1, aq2 - f * ab2
-    return np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
 
 @njit(cache=True)

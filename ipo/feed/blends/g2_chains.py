@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 
 from ipo.feed.blends.chain_fit import FIT_SHARE, SMOOTH_MM, fitted_midpoints
-from ipo.feed.blends.compiled import segment_distance
+from ipo.segments import segment_distance
 
 _CURVE_POINTS = 65  # points of each quintic checked against the corner's two half moves, and its caps read from
 _SIDE_POINTS = 17  # points of each half move checked against the quintic

@@ -18,8 +18,9 @@ import pytest
 
 from ipo.feed.analytic import Geometry, evaluate, frame, point_tangent, points_along_piece
 from ipo.feed.blends.compiled import (bezier_points_at, bezier_points_runs, bezier_tables, blend_deviation,
-                                      cubic_points, polyline_distance, segment_distance)
+                                      cubic_points, polyline_distance)
 from ipo.feed.sampling import GAUSS_W, GAUSS_X
+from ipo.segments import segment_distance
 from ipo.feed.blends.curve_corner import _CHECK_BASIS, _bernstein3, arc_cubic
 
 RNG = np.random.default_rng(22)
