@@ -1,5 +1,6 @@
 """The distance of a point from a straight segment: one compiled kernel for the rooms that measure
-deviations from polylines (the feed stage's corner blends, the reference pulse's curve check)."""
+deviations from polylines (the feed stage's corner blends, the reference pulse's curve check, the
+servo model's contour error)."""
 from __future__ import annotations
 
 import numpy as np

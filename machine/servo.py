@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ipo.segments import segment_distance
+
 
 @njit(cache=True)
 def _follow(cmd, c0, x0, a, gain_ramp, out):
@@ -42,25 +44,10 @@ def _contour(actual, path, first, window, out):
     """out[k] = distance from actual[k] to the polyline path[max(0, first+k-window) .. first+k]."""
     for k in range(actual.shape[0]):
         end = first + k
-        start = max(0, end - window)
-        best = np.inf
-        px, py, pz = actual[k, 0], actual[k, 1], actual[k, 2]
-        for j in range(start, end + 1):
-            ax, ay, az = path[j, 0], path[j, 1], path[j, 2]
-            if j < end:
-                dx, dy, dz = path[j + 1, 0] - ax, path[j + 1, 1] - ay, path[j + 1, 2] - az
-            else:
-                dx, dy, dz = 0.0, 0.0, 0.0
-            wx, wy, wz = px - ax, py - ay, pz - az
-            dd = dx * dx + dy * dy + dz * dz
-            t = 0.0
-            if dd > 0.0:
-                t = min(1.0, max(0.0, (wx * dx + wy * dy + wz * dz) / dd))
-            ex, ey, ez = wx - t * dx, wy - t * dy, wz - t * dz
-            d2 = ex * ex + ey * ey + ez * ez
-            if d2 < best:
-                best = d2
-        out[k] = math.sqrt(best)
+        best = segment_distance(actual[k], path[end], path[end])
+        for j in range(max(0, end - window), end):
+            best = min(best, segment_distance(actual[k], path[j], path[j + 1]))
+        out[k] = best
 
 
 class ServoModel:

@@ -31,13 +31,14 @@ RESYNC_PERIODS = 32
 # 1e-5 of a chord: at 0.1 mm a period (100 mm/s, 1 ms) 1 nm, whose change over a period
 # stays within the planner's headroom below the acceleration limit (feed.ACCEL_USE)
 CHORD_TOL_PCT = 1e-3
-# Curve evaluations a period's chord solve may spend. At the stepper's default (8) a curve
-# whose speed in u changes by orders of magnitude within a period (weights of 1e-5 next to
-# 1e-2, as `vcnc fit` writes for CAMotics' bear.nc) ran out and kept the longest trial short
-# of the chord: 13 um of a 28 um step lost in one period, and the lag's catch-up took X to
-# 1140 mm/s^2 against 1000. The solve brackets the root (Illinois regula falsi), so this
-# cap is far from reached (15 at most over the whole fitted bear.nc); a period
-# that converges within 8 is solved exactly as before.
+# Curve evaluations a period's chord solve spends before it only halves its bracket. A solve
+# that stopped at a cap short of the chord would leave a lag whose catch-up breaks the axis
+# limits: at the stepper's default cap (8) a curve whose speed in u changes by orders of
+# magnitude within a period (weights of 1e-5 next to 1e-2, as `vcnc fit` writes for
+# CAMotics' bear.nc) lost 13 um of a 28 um step in one period, and the catch-up took X to
+# 1140 mm/s^2 against 1000. So the driver's solve never stops short (bisect_past_cap); past
+# this count it halves the bracket, which the regula falsi before it (15 evaluations at most
+# over the whole fitted bear.nc) does not need.
 MAX_CHORD_EVALS = 64
 _END_SNAP_MM = 1e-9
 
@@ -73,7 +74,7 @@ class NurbsDriver:
         if self.stepper is None:
             lead = max(-sigma_before, 0.0)
             self.stepper = make_stepper(self.entity, method=self.method, lead_mm=lead, chord_tol_pct=CHORD_TOL_PCT,
-                                        max_evals=MAX_CHORD_EVALS)
+                                        max_evals=MAX_CHORD_EVALS, bisect_past_cap=True)
         a = 0
         while a < n and not self.stepper.done:
             # towards the curve's end a chunk covers at most half of what is left, so that the

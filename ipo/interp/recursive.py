@@ -15,7 +15,11 @@ bracket of trials found so far. Where it leaves the bracket, or two trials in a 
 the same side of d (a kink in the curve), the Illinois variant of regula falsi on the
 bracket takes over; eq. 9 serves until an overshoot closes the bracket. Should the cap
 stop it on a trial beyond d(1 + tol), the longest trial short of d is output instead, so
-an adaptive chord never exceeds d(1 + tol).
+an adaptive chord never exceeds d(1 + tol). With `bisect_past_cap` (the feed stage, whose
+driver would have to catch up a short chord within the next periods) the cap does not stop
+the solve: past it the bracket is halved (doubling until an overshoot closes it) until the
+chord is within the tolerance or the bracket is one float wide, so a period falls short of
+its chord by no more than float resolution.
 
 A zero chord (a stretch where the curve stands still) doubles the increment instead of
 dividing by zero, so the parameter always moves forward.
@@ -39,6 +43,7 @@ class ChordRule(NamedTuple):
     tol: float  # tolerance modes: relative chord tolerance (< 0: paper mode)
     cap: int  # tolerance modes: evaluations before the last trial is taken
     secant: bool  # the adaptive update (see the module docstring) instead of eq. 9
+    bisect_past_cap: bool  # adaptive update: past the cap, bisect to the tolerance (module docstring)
 
 
 @njit(cache=True)
@@ -86,7 +91,8 @@ def recursive_step(curve, rule, span, u, p, d, g, prev):
     A trial at or beyond u_max is the end point; when that end lies within d (plus the
     tolerance) the period ends the curve.
     Returns (du, x, y, z, chord, evals, at_end, span)."""
-    n_fixed, tol, cap, secant = rule
+    n_fixed, tol, cap, secant, bisect_past_cap = rule
+    bisect_past_cap = bisect_past_cap and secant and tol >= 0.0
     breaks, inv_h, coef, end = curve.breaks, curve.inv_h, curve.coef, curve.end
     ru = curve.u_max - u
     px, py, pz = p
@@ -114,7 +120,7 @@ def recursive_step(curve, rule, span, u, p, d, g, prev):
         if tol < 0.0:
             accept = k >= n_fixed and not clamped
         else:
-            accept = not clamped and (abs(s - d) <= tol * d or evals >= cap)
+            accept = not clamped and (abs(s - d) <= tol * d or (evals >= cap and not bisect_past_cap))
         if accept:
             if tol >= 0.0 and s > d * (1.0 + tol) and lo > 0.0:  # capped: never overshoot d
                 return lo, xl, yl, zl, sl, evals, False, span
@@ -142,8 +148,12 @@ def recursive_step(curve, rule, span, u, p, d, g, prev):
                     gn = lo - flo * (hi - lo) / (fhi - flo)
                 else:  # no overshoot yet: eq. 9, or doubling where the chord hardly grows
                     gn = eq9(d, g, s) if streak < 3 else max(eq9(d, g, s), 2.0 * g)
-            if not (lo < gn < hi):
+            if not (lo < gn < hi) or evals >= cap:
                 gn = 0.5 * (lo + hi) if hi < inf else 2.0 * g
+                if evals >= cap and not (lo < gn < hi):  # the bracket is one float wide
+                    if lo > 0.0:
+                        return lo, xl, yl, zl, sl, evals, False, span
+                    return g, x, y, z, s, evals, False, span
             if s > 0.0:
                 xa, ya = g, s
         g = gn

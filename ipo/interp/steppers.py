@@ -9,7 +9,8 @@ the part spent by the start-up (the first moving period, or the first ones shoul
 too short to measure du/ds from). With `chord_tol_pct`, every period's chord is solved to
 that tolerance: by the recursive update's tolerance mode, or from a Taylor update's du as
 the first guess (the feed stage needs it: a chord error that changes from period to period
-is an acceleration error). Constant du has no chord to hold.
+is an acceleration error; it also asks `bisect_past_cap`, so that max_evals never leaves a
+period short). Constant du has no chord to hold.
 """
 from __future__ import annotations
 
@@ -50,6 +51,7 @@ class WalkOptions(NamedTuple):
     start_tol: float  # relative chord tolerance of the start-up (§2.2.1); < 0: none
     chord_tol: float  # relative chord tolerance of every period; < 0: none
     max_evals: int  # evaluations per period under chord_tol
+    bisect_past_cap: bool  # under chord_tol: past max_evals, bisect on to the tolerance (recursive.py)
     du: float  # constant du: the increment
 
 
@@ -135,20 +137,20 @@ def _walk(curve, opts, st, ist, der, steps, pos, uo, evo):
         span = ist[_SPAN]
         here = (px, py, pz)
         prev = (st[_G1], st[_S1])
-        tolerant = ChordRule(opts.n1, chord_tol, opts.max_evals, True)
+        tolerant = ChordRule(opts.n1, chord_tol, opts.max_evals, True, opts.bisect_past_cap)
         extra = 0
         if method == _RECURSIVE:
             if not started:
                 g = d * (u_max - u_min) / curve.polygon_mm  # 000 eq. 12
                 tol = opts.start_tol if opts.start_tol >= 0.0 else chord_tol
-                startup = ChordRule(opts.m1, tol, STARTUP_CAP, chord_tol >= 0.0)
+                startup = ChordRule(opts.m1, tol, STARTUP_CAP, chord_tol >= 0.0, opts.bisect_past_cap)
                 res = recursive_step(curve, startup, span, u, here, d, g, (0.0, 0.0))
             elif chord_tol >= 0.0:
                 g = d * predict_ratio(st[_G1], st[_S1], st[_G2], st[_S2], d)
                 res = recursive_step(curve, tolerant, span, u, here, d, g, prev)
             else:
                 g = eq9(d, st[_G1], st[_S1])  # 000 eq. 8
-                res = recursive_step(curve, ChordRule(opts.n1, -1.0, 0, False), span, u, here, d, g, (0.0, 0.0))
+                res = recursive_step(curve, ChordRule(opts.n1, -1.0, 0, False, False), span, u, here, d, g, (0.0, 0.0))
         elif method == _CONSTANT_DU:
             res = constant_du_step(curve, span, u, here, opts.du)
         else:
@@ -225,7 +227,7 @@ class NurbsStepper:
 
     def __init__(self, entity: Nurbs, *, method: str = "recursive", lead_mm: float = 0.0, n1: int = 2,
                  m1: int = 3, start_tol_pct: float | None = None, chord_tol_pct: float | None = None,
-                 max_evals: int = 8, du: float = 0.02):
+                 max_evals: int = 8, du: float = 0.02, bisect_past_cap: bool = False):
         if method not in METHODS:
             raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
         for name, value in (("n1", n1), ("m1", m1), ("max_evals", max_evals)):
@@ -241,7 +243,7 @@ class NurbsStepper:
         _check_curve(entity)
         curve = compile_curve(int(entity.degree), entity.knots, np.asarray(entity.weights, float), entity.points)
         opts = WalkOptions(METHODS[method], int(n1), int(m1), -1.0 if start_tol_pct is None else start_tol_pct / 100.0,
-                           -1.0 if chord_tol_pct is None else chord_tol_pct / 100.0, int(max_evals), float(du))
+                           -1.0 if chord_tol_pct is None else chord_tol_pct / 100.0, int(max_evals), bool(bisect_past_cap), float(du))
         self._records = (tuple(curve), tuple(opts))  # as _walk_tuples takes them
         self._st = np.zeros(_NST)
         self._st[_U] = curve.u_min
@@ -279,11 +281,11 @@ class NurbsStepper:
 
 def make_stepper(entity, *, method: str = "recursive", lead_mm: float = 0.0, n1: int = 2, m1: int = 3,
                  start_tol_pct: float | None = None, chord_tol_pct: float | None = None,
-                 max_evals: int = 8, du: float = 0.02):
+                 max_evals: int = 8, du: float = 0.02, bisect_past_cap: bool = False):
     """The stepper for one motion entity; `method` and its options apply to NURBS only."""
     if isinstance(entity, Nurbs):
         return NurbsStepper(entity, method=method, lead_mm=lead_mm, n1=n1, m1=m1, start_tol_pct=start_tol_pct,
-                            chord_tol_pct=chord_tol_pct, max_evals=max_evals, du=du)
+                            chord_tol_pct=chord_tol_pct, max_evals=max_evals, du=du, bisect_past_cap=bisect_past_cap)
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if isinstance(entity, (Rapid, Line)):

@@ -10,10 +10,13 @@ over the limit by the drive's 10-period stencil, 14000 mm/s^2 by one-period diff
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import ipr
 from ipo.contracts import PeriodBatch
+from ipo.feed import nurbs_driver
 from ipo.feed.planner import plan_periods
+from ipo.interp.steppers import make_stepper
 from ipr.entities import Nurbs
 from tests.ipo.feed.test_nurbs_blend import CFG, A, T, V, assert_forward_to_the_end, finite_differences
 
@@ -37,11 +40,47 @@ A_SLACK = 2 * CFG.blu_mm / T**2
 V_SLACK = CFG.blu_mm / T
 
 
-def test_steep_weight_group_stays_within_the_axis_limits():
+def _group():
     (e,) = [x for x in ipr.parse_text(PROGRAM, "bear_917.nc").entities if isinstance(x, Nurbs)]
+    return e
+
+
+def test_steep_weight_group_stays_within_the_axis_limits():
+    e = _group()
     assert e.weights.max() / e.weights.min() > 2000  # the steepness this is about
     items = plan_periods([e], CFG, start_mm=e.start)
     pos = np.concatenate([b.pos_mm for b in items if isinstance(b, PeriodBatch)])
+    v, a = finite_differences(pos, e.start)
+    assert np.all(np.abs(v) <= V + V_SLACK), np.abs(v).max(0)
+    assert np.all(np.abs(a) <= A + A_SLACK), np.abs(a).max(0)
+    assert_forward_to_the_end(pos, e.start, e.end)
+
+
+@pytest.mark.parametrize("max_evals", [2, 8])
+def test_the_chord_solve_past_its_cap_still_meets_every_chord(max_evals):
+    """Past max_evals the feed stage's solve halves its bracket instead of keeping a short
+    trial: every period's chord (measured from the output points) is the asked one within
+    the tolerance, however few evaluations the cap allows before it bisects."""
+    e = _group()
+    step_mm, tol = 0.028, 1e-5
+    steps = np.full(200, step_mm)
+    capped = make_stepper(e, chord_tol_pct=100 * tol, max_evals=max_evals).advance(steps)
+    exact = make_stepper(e, chord_tol_pct=100 * tol, max_evals=max_evals, bisect_past_cap=True).advance(steps)
+    for st in (capped, exact):
+        assert not st.done  # 200 steps of 28 um stay inside the 7.3 mm group
+    chords = np.linalg.norm(np.diff(np.vstack([e.start, exact.pos_mm]), axis=0), axis=1)
+    assert np.all(np.abs(chords - step_mm) <= tol * step_mm * (1 + 1e-9)), np.abs(chords - step_mm).max()
+    short = step_mm - np.linalg.norm(np.diff(np.vstack([e.start, capped.pos_mm]), axis=0), axis=1)
+    assert short.max() > 10 * tol * step_mm  # where the cap alone stops the solve short
+    assert exact.evals.max() > max_evals
+
+
+def test_a_driver_with_a_small_cap_still_stays_within_the_axis_limits(monkeypatch):
+    """The driver's periods never fall short at the cap, so no lag is left to catch up: with
+    only 8 evaluations before bisection (the cap that broke the limits) the limits hold."""
+    monkeypatch.setattr(nurbs_driver, "MAX_CHORD_EVALS", 8)
+    e = _group()
+    pos = np.concatenate([b.pos_mm for b in plan_periods([e], CFG, start_mm=e.start) if isinstance(b, PeriodBatch)])
     v, a = finite_differences(pos, e.start)
     assert np.all(np.abs(v) <= V + V_SLACK), np.abs(v).max(0)
     assert np.all(np.abs(a) <= A + A_SLACK), np.abs(a).max(0)
