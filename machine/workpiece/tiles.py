@@ -108,35 +108,40 @@ def _tile_cover(best, grid_mm):
 
 @njit(cache=True, inline="always")
 def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
-    """No node of the tile can take the run: its tangent plane of G* at the tile centre (bounds.bound_plane:
-    plane = (G*, dG*/dx, dG*/dy, ok)) is nowhere below a node's best (an exact tie can still move a node's
-    line to an earlier segment). First against the tile's cover plane (_tile_cover) at the tile's corners: a
-    plane above it there by more than PLANE_MARGIN_MM, which the rounding of both planes cannot reach, is
-    above every node. Else node by node: the counts are integer sums, which the vector units take without
-    reordering floating-point sums."""
+    """(prunes, j_lo, j_hi). Prunes: no node of the tile can take the run, its tangent plane of G* at the tile
+    centre (bounds.bound_plane: plane = (G*, dG*/dx, dG*/dy, ok)) being nowhere below a node's best (an exact
+    tie can still move a node's line to an earlier segment). First against the tile's cover plane
+    (_tile_cover) at the tile's corners: a plane above it there by more than PLANE_MARGIN_MM, which the
+    rounding of both planes cannot reach, is above every node. Else node by node: the counts are integer
+    sums, which the vector units take without reordering floating-point sums. Rows j_lo .. j_hi of the tile
+    hold every node where the plane is not above best by PLANE_MARGIN_MM: elsewhere G* (at or above its
+    plane) cannot win, so _keep need not evaluate it."""
     gc, gx, gy, ok = plane
     if not ok:
-        return False
+        return False, 0, TILE - 1
     half_mm = 0.5 * (TILE - 1) * grid_mm
     if gc - cover[0] - half_mm * (abs(gx - cover[1]) + abs(gy - cover[2])) > PLANE_MARGIN_MM:
-        return True
+        return True, 0, TILE - 1
     below = 0
     level = 0
+    j_lo, j_hi = TILE, -1
     for m in range(NODES):
         plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
                     floor_mm)
         below += plane < best[m]
         level += plane == best[m]
+        near = plane - PLANE_MARGIN_MM < best[m]
+        j_lo, j_hi = min(j_lo, m // TILE if near else TILE), max(j_hi, m // TILE if near else -1)
     if below > 0:
-        return False
+        return False, j_lo, j_hi
     if level == 0:
-        return True
+        return True, j_lo, j_hi
     for m in range(NODES):
         plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
                     floor_mm)
         if plane == best[m] and idx[m] > a:
-            return False
-    return True
+            return False, j_lo, j_hi
+    return True, j_lo, j_hi
 
 
 # rows of a block's table of its runs (_near), laid out for the scan of each tile
@@ -256,13 +261,20 @@ def workspace(listed, runs):
 
 
 @njit(cache=True, inline="always")
-def _keep(c, kept, i0, j0, zm, core, runs, ws):
-    """Run c becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws."""
+def _keep(c, kept, i0, j0, zm, core, runs, ws, rows, counts):
+    """Run c becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws; for a ball only at the
+    rows (j_lo, j_hi) of the tile where it may win (_plane_prunes), G* = inf at the others."""
     run = run_row(runs, c)
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
+    g_star, s_star = ws.g_star[kept], ws.s_star[kept]
     if core == 0.0:
-        ball_bounds(origin_x, origin_y, grid_mm, i0, j0, TILE, TILE, run, floor_mm, ws.g_star[kept], ws.s_star[kept])
+        m0, m1 = rows[0] * TILE, (rows[1] + 1) * TILE
+        g_star[:m0], g_star[m1:], s_star[:m0], s_star[m1:] = np.inf, np.inf, 0.0, 0.0
+        ball_bounds(origin_x, origin_y, grid_mm, i0, j0 + rows[0], TILE, rows[1] - rows[0] + 1, run, floor_mm,
+                    g_star[m0:m1], s_star[m0:m1])
+        counts[2] += m1 - m0
     else:
+        counts[2] += NODES
         for m in range(NODES):
             ws.g_star[kept, m], ws.s_star[kept, m] = bound_node(origin_x + (i0 + m % TILE) * grid_mm,
                                                                 origin_y + (j0 + m // TILE) * grid_mm, run, floor_mm)
@@ -296,7 +308,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     count = listed.shape[0]
     group = _select(count, ws.scratch, top, top, key0, True, cand)
     for q in range(group):
-        _keep(listed[cand[q]], q, i0, j0, zm, bt.core, runs, ws)
+        _keep(listed[cand[q]], q, i0, j0, zm, bt.core, runs, ws, (0, TILE - 1), counts)
     top_now = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
     cover = _tile_cover(best, grid_mm)
     kept = group
@@ -308,10 +320,10 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         state = ws.planes[3, q] if bt.core == 0.0 else 2.0
         plane = bound_plane(mx, my, run_row(runs, c)) if state == 2.0 else (ws.planes[0, q], ws.planes[1, q],
                                                                              ws.planes[2, q], state == 1.0)
-        if not _plane_prunes(plane, grid_mm, floor_mm, starts[c], best, idx, cover):
-            _keep(c, kept, i0, j0, zm, bt.core, runs, ws)
+        prunes, j_lo, j_hi = _plane_prunes(plane, grid_mm, floor_mm, starts[c], best, idx, cover)
+        if not prunes:
+            _keep(c, kept, i0, j0, zm, bt.core, runs, ws, (j_lo, j_hi), counts)
             kept += 1
-    counts[2] += kept * NODES
     _sweep_runs(group, kept, zm, bt, starts, runs, ws, counts)
     new_top = -np.inf
     for m in range(NODES):
