@@ -54,6 +54,17 @@ _MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 n
 BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])  # a corner blend: one cubic Bezier span
 
 
+def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+# a corner blend's knots and weights by its number of control points (one Bezier span), shared by
+# every blend of that degree (entities' arrays are read-only)
+_BLEND_SPANS = {4: _read_only(BEZIER3_KNOTS.copy(), np.ones(4)), 6: _read_only(BEZIER5_KNOTS.copy(), np.ones(6))}
+
+
 @dataclass(slots=True)
 class Pieces:
     """P consecutive pieces: arrays of length P (vectors (P, 3))."""
@@ -300,8 +311,8 @@ def _put_blends(pc: Pieces, slots: np.ndarray, ctrls: list[np.ndarray], nurbs: D
     (whose line and feed, those of the move before each, are set)."""
     if not ctrls:
         return
-    idx = nurbs.add([Nurbs(int(pc.line[k]), len(ctrl) - 1, (BEZIER3_KNOTS if len(ctrl) == 4 else BEZIER5_KNOTS).copy(),
-                           np.ones(len(ctrl)), ctrl, float(pc.feed_mm_s[k])) for k, ctrl in zip(slots, ctrls)])
+    idx = nurbs.add([Nurbs(line, len(ctrl) - 1, *_BLEND_SPANS[len(ctrl)], ctrl, feed)
+                     for line, feed, ctrl in zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)])
     pc.kind[slots] = KIND_BLEND
     pc.nurbs[slots] = idx
     pc.length[slots] = [nurbs[i].table.length for i in idx]

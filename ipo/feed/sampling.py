@@ -231,8 +231,8 @@ def blend_tables(blends: list) -> list[NurbsTable]:
                                                       _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS, MAX_TURN_RAD,
                                                       MAX_SPACING_MM)
         bad += [rows[r] for r in np.flatnonzero(~ok)]
-        for r, i in enumerate(rows):
-            a, z = first[r], first[r + 1]
+        first = first.tolist()
+        for i, a, z in zip(rows, first[:-1], first[1:]):
             out[i] = NurbsTable(s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z], bezier=True)
     if bad:
         raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", blends[min(bad)].line)
@@ -333,8 +333,9 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     n_int = np.maximum(np.ceil(pc.length / MAX_SPACING_MM), np.ceil(pc.omega * pc.length / MAX_TURN_RAD))
     n_int = np.maximum(n_int, 1).astype(np.int64)
     nurbs_idx = np.nonzero(pc.kind != KIND_ANALYTIC)[0]
-    for i in nurbs_idx:
-        n_int[i] = len(tables[int(pc.nurbs[i])].s) - 1
+    tabs = [tables[k] for k in pc.nurbs[nurbs_idx].tolist()]
+    rows = np.array([len(tab.s) for tab in tabs], dtype=np.int64)  # each table's samples
+    n_int[nurbs_idx] = rows - 1
     analytic = pc.kind == KIND_ANALYTIC
     gap = analytic & (pc.length > 3 * end_gap_mm) & (end_gap_mm > 0)
     # a short piece between two corners gets its midpoint: the profile is linear in v^2
@@ -344,9 +345,9 @@ def sample(pc: Pieces, s0: float, tables: dict[int, NurbsTable], end_gap_mm: flo
     starts = s0 + np.concatenate([[0.0], np.cumsum(pc.length)[:-1]])
     piece, sigma, s, t, kv, first = _fill(pc.geometry, pc.length, n_int, analytic, gap, mid, float(end_gap_mm),
                                           starts, total)
-    for i in nurbs_idx:
-        tab = tables[int(pc.nurbs[i])]
-        sl = slice(first[i], first[i] + len(tab.s))
-        sigma[sl], t[sl], kv[sl] = tab.s, tab.t, tab.kv
-        s[sl] = starts[i] + tab.s
+    if tabs:  # the tables' rows in one assignment each (a build has thousands of blends)
+        to = np.repeat(first[nurbs_idx] - (np.cumsum(rows) - rows), rows) + np.arange(rows.sum())
+        sigma[to] = np.concatenate([tab.s for tab in tabs])
+        t[to], kv[to] = np.concatenate([tab.t for tab in tabs]), np.concatenate([tab.kv for tab in tabs])
+        s[to] = np.repeat(starts[nurbs_idx], rows) + sigma[to]
     return Samples(s, t, kv, piece, sigma)

@@ -13,7 +13,9 @@ import pytest
 from scipy.interpolate import BSpline
 
 import ipo.feed.pieces as pieces
-from ipo.feed.blends.g2_chains import _MU2, _midpoint_curvatures, chain_runs
+from ipo.feed.blends.g2_chains import (_CURVE_POINTS, _MU2, _SEARCH, _midpoint_curvatures, _nearest_chord,
+                                     chain_runs)
+from ipo.segments import segment_distance
 from ipr.entities import Line, PathControl
 from tests.ipo.feed.test_g2_joint_blend import BEZIER5, assert_within_p, built
 from tests.ipo.feed.test_jerk_profile import CFG, assert_within_limits, run
@@ -144,3 +146,25 @@ def test_a_run_crosses_a_feed_change_at_the_lower_feed():
     v = np.linalg.norm(np.diff(pos, axis=0), axis=1) / CFG.period_s
     past = np.arctan2(pos[:-1, 1], pos[:-1, 0]) > np.radians(44.5)  # periods from the quintic's start on
     assert v[past].max() <= 20.0 + 2 * CFG.blu_mm / CFG.period_s  # BLU rounding of both ends
+
+
+def test_nearest_chord_is_the_window_search_to_the_bit():
+    """The pruned search gives the chord and distance of measuring every chord of the window
+    (the first nearest of ties: points on the polyline's vertices and on its chords included)."""
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        pts = np.cumsum(rng.normal(size=(_CURVE_POINTS, 3)) * rng.choice([1e-3, 0.1, 1.0]), axis=0)
+        pts += rng.normal(size=3) * rng.choice([0.0, 1.0, 500.0])
+        chord = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        size = float(np.abs(pts).max())
+        for _ in range(20):
+            near = int(rng.integers(0, _CURVE_POINTS - 1))
+            i = int(rng.integers(0, _CURVE_POINTS - 1))
+            q = rng.choice([pts[i], pts[i] + rng.random() * (pts[i + 1] - pts[i]),
+                            pts[i] + rng.normal(size=3) * float(chord[i])])
+            want_near, want = near, np.inf
+            for k in range(max(near - _SEARCH, 0), min(near + _SEARCH, _CURVE_POINTS - 1)):
+                d = segment_distance(q, pts[k], pts[k + 1])
+                if d < want:
+                    want_near, want = k, d
+            assert _nearest_chord(q, pts, chord, near, size) == (want_near, want)
