@@ -1,10 +1,11 @@
-"""numpy's linspace and interp as numba kernels, to the bit: for compiled code that must pick the
-same parameters as a numpy path beside it (ipo.feed.table_verdict beside nurbs_table, the fit's
-curve samples)."""
+"""numpy's linspace and interp, and the dot product of 3-vectors, as numba kernels, to the bit: for
+compiled code that must pick the same parameters as a numpy path beside it (ipo.feed.table_verdict
+beside nurbs_table, the fit's curve samples) or that tests thousands of conic spans (ipo.fit.conic)."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 
 @njit(cache=True)
@@ -28,3 +29,24 @@ def interp_at(x, xp, fp):
         return fp[j]
     slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
     return slope * (x - xp[j]) + fp[j]
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a * b + c rounded once (LLVM's fma)."""
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@njit(cache=True)
+def dot3(a, b):
+    """a @ b of two 3-vectors as numba's `@` forms it here (BLAS ddot: a fused multiply-add chain, measured
+    equal on 500,000 random pairs), without its call and temporaries."""
+    return _fma(a[2], b[2], _fma(a[1], b[1], a[0] * b[0]))
+
+
+@njit(cache=True)
+def dot3_from(x, origin, b):
+    """(x - origin) @ b, as dot3 forms it."""
+    return _fma(x[2] - origin[2], b[2], _fma(x[1] - origin[1], b[1], (x[0] - origin[0]) * b[0]))

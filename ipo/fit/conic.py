@@ -28,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from ipo.fit.distance import walk
+from ipo.numpy_kernels import dot3, dot3_from
 
 MAX_SAMPLES = 128  # curve samples per span at most
 SAMPLE_SPACING_MM = 0.1  # along the control polygon
@@ -46,19 +47,19 @@ def control_point(a, ta, b, tb, gap_mm, out):
     (lines apart by more than gap_mm, C behind A or ahead of B, or parallel tangents that do
     not both lie on AB: that takes an inflection, two spans)."""
     ab = b - a
-    chord = np.sqrt(ab @ ab)
+    chord = np.sqrt(dot3(ab, ab))
     if chord == 0.0:
         return False
-    c12 = ta @ tb
+    c12 = dot3(ta, tb)
     det = 1.0 - c12 * c12
     if det < PARALLEL:
         # a straight span: both tangents along AB
-        along = (ta @ ab) / chord
-        if along < 1.0 - 1e-9 or (tb @ ab) / chord < 1.0 - 1e-9:
+        along = dot3(ta, ab) / chord
+        if along < 1.0 - 1e-9 or dot3(tb, ab) / chord < 1.0 - 1e-9:
             return False
         out[:3] = 0.5 * (a + b)
         return True
-    b1, b2 = ta @ ab, tb @ ab
+    b1, b2 = dot3(ta, ab), dot3(tb, ab)
     s = (b1 - c12 * b2) / det
     r = (c12 * b1 - b2) / det  # B + r tb is the closest point on B's line; r < 0 behind B
     if not (MIN_ARM * chord <= s <= MAX_ARM * chord and MIN_ARM * chord <= -r <= MAX_ARM * chord):
@@ -66,7 +67,7 @@ def control_point(a, ta, b, tb, gap_mm, out):
     p = a + s * ta
     qq = b + r * tb
     d = p - qq
-    if d @ d > gap_mm * gap_mm:
+    if dot3(d, d) > gap_mm * gap_mm:
         return False
     out[:3] = 0.5 * (p + qq)
     return True
@@ -79,16 +80,16 @@ def shoulder_rho(path, count, c):
     a, b = path[0], path[count - 1]
     m = 0.5 * (a + b)
     mc = c - m
-    lm = np.sqrt(mc @ mc)
+    lm = np.sqrt(dot3(mc, mc))
     if lm < 1e-12:
         return 1.0
     side = np.cross(mc, np.cross(c - a, b - a))  # in the span's plane, perpendicular to M -> C
-    fp = (path[0] - m) @ side
+    fp = dot3_from(path[0], m, side)
     for k in range(1, count):
-        fc = (path[k] - m) @ side
+        fc = dot3_from(path[k], m, side)
         if (fp <= 0.0 < fc) or (fp >= 0.0 > fc):
             x = path[k - 1] + (fp / (fp - fc)) * (path[k] - path[k - 1])
-            f = ((x - m) @ mc) / (lm * lm)
+            f = dot3_from(x, m, mc) / (lm * lm)
             f = min(max(f, RHO_MIN / (1.0 + RHO_MIN)), RHO_MAX / (1.0 + RHO_MAX))
             return f / (1.0 - f)
         fp = fc
@@ -136,7 +137,7 @@ def span_within(path, count, c, rho, tol_mm, curve):
     sample(a, c, b, rho, PROBES, curve)
     if not _points_within(curve, 1, PROBES - 1, path, count, tol2):
         return False
-    poly_len = np.sqrt((c - a) @ (c - a)) + np.sqrt((b - c) @ (b - c))
+    poly_len = np.sqrt(dot3_from(c, a, c - a)) + np.sqrt(dot3_from(b, c, b - c))
     n = min(MAX_SAMPLES, max(MIN_SAMPLES, int(np.ceil(poly_len / SAMPLE_SPACING_MM)) + 1))
     sample(a, c, b, rho, n, curve)
     # the path's vertices to the curve, the curve to the path, points along the path to the curve
