@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from machine.workpiece.chains import deviation
-from machine.workpiece.envelope import envelope, profile_mm, profile_slope
+from machine.workpiece.envelope import TINY_MM2, ball_slanted, envelope, profile_mm, profile_slope
 
 # columns of the run table
 AX, AY, AZ, BX, BY, BZ, INV_LL, CORE, CORNER, DROP = range(10)
@@ -90,6 +90,29 @@ def bound_plane(qx, qy, run):
     if rho <= core or rho == 0.0:
         return g - run[DROP], 0.0, 0.0, True
     return g - run[DROP], slope * px / rho, slope * py / rho, True
+
+
+@njit(cache=True, error_model="numpy")
+def ball_planes(qx, qy, runs, listed, chosen, n, out):
+    """bound_plane at q for the ball runs listed[chosen[0 .. n-1]], into out's columns (G*, dG*/dx, dG*/dy,
+    state: 1 a plane, 0 none, 2 a vertical line, for bound_plane itself): its arithmetic with selects in
+    place of branches (envelope.ball_slanted for env_ball), so that the loop runs on the CPU's vector units
+    and gives the same bits (numpy's error model: a division by zero only reaches a discarded select)."""
+    for p in range(n):
+        c = listed[chosen[p]]
+        ax, ay, az, bx, by, bz = runs[c, AX], runs[c, AY], runs[c, AZ], runs[c, BX], runs[c, BY], runs[c, BZ]
+        r = runs[c, CORNER]
+        dx, dy = bx - ax, by - ay
+        g, s = ball_slanted(qx, qy, ax, ay, az, bx, by, bz, r)
+        px, py = qx - ax - s * dx, qy - ay - s * dy
+        rho = math.sqrt(px * px + py * py)
+        w2 = r * r - rho * rho
+        slope = rho / math.sqrt(w2 if w2 > 0.0 else 1.0)  # profile_slope(rho, 0, r) where it is finite
+        flat = rho == 0.0
+        out[0, p] = g - runs[c, DROP]
+        out[1, p] = 0.0 if flat else slope * px / rho
+        out[2, p] = 0.0 if flat else slope * py / rho
+        out[3, p] = 2.0 if dx * dx + dy * dy <= TINY_MM2 else 1.0 if g < np.inf and (flat or w2 > 0.0) else 0.0
 
 
 @njit(cache=True, error_model="numpy")

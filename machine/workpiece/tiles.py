@@ -6,7 +6,8 @@ STEP 3  The runs listed for the tile's block that its distance bound min(z_A, z_
 STEP 4  First the group of runs whose key is within GROUP_MM of the lowest (the passes through the tile
         and next to it: they leave the nodes near their final heights), then each other run unless its
         distance bound is above the tile's highest node or its tangent plane of G* at the tile centre is
-        nowhere below a node (bounds.bound_plane: G* is convex in q). For a ball, the kept runs one after
+        nowhere below a node (bounds.bound_plane: G* is convex in q; first at the tile's corners against a
+        plane on or above every node, _tile_cover). For a ball, the kept runs one after
         the other, the group's first, at all the rows of nodes each may lower at once
         (search.sweep_ball); for a flat or a bull, per node: each node searches the runs whose G* there is
         below its height, in the order of G* (search.search).
@@ -21,8 +22,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, bound_line,
-                                      bound_node, bound_plane, proj, run_row)
+from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, ball_planes,
+                                      bound_line, bound_node, bound_plane, proj, run_row)
 from machine.workpiece.search import search, sweep_ball, wins
 
 TILE = 8  # nodes along a tile's side
@@ -34,6 +35,10 @@ COUNTS = 4
 # lowest point 0.2 mm aside): searches 4.59 M -> 3.96 M, kept runs 422 k -> 348 k against the closest run
 # alone; 10 um: 4.17 M, 371 k; 40 um: 3.69 M, 354 k (the group's own bounds grow).
 GROUP_MM = 0.020
+# A run's plane of G* above the tile's cover plane by more than this at the tile's corners is above every node:
+# far above the rounding of either plane (heights below 1000 mm: 1e-13 mm), far below any height that matters.
+PLANE_MARGIN_MM = 1e-9
+_SUM_U2 = sum((u - 0.5 * (TILE - 1)) ** 2 for u in range(TILE))  # sum of (u - 3.5)^2 over a tile's row
 
 
 class ZMap(NamedTuple):
@@ -68,8 +73,7 @@ class Workspace(NamedTuple):
     best: np.ndarray
     idx: np.ndarray
     cand: np.ndarray
-    cand_bound: np.ndarray
-    cand_key: np.ndarray
+    planes: np.ndarray  # the planes of G* of the candidates that are not pruned by their bounds (_plane_prunes)
     g_star: np.ndarray
     s_star: np.ndarray
     order: np.ndarray
@@ -79,31 +83,65 @@ class Workspace(NamedTuple):
     need: np.ndarray  # search.sweep_ball's scratch
 
 
+@njit(cache=True, error_model="numpy")
+def _tile_cover(best, grid_mm):
+    """(c, sx, sy): the plane c + sx (x - mx) + sy (y - my) about the tile centre (mx, my), the nodes' least
+    squares plane raised to lie on or above every node's best; nan where the tile has nodes off the grid.
+    _plane_prunes compares a run's plane with it at the tile's corners instead of at its 64 nodes."""
+    c, sx, sy = 0.0, 0.0, 0.0
+    for m in range(NODES):
+        u, v = m % TILE - 0.5 * (TILE - 1), m // TILE - 0.5 * (TILE - 1)
+        c += best[m]
+        sx += best[m] * u
+        sy += best[m] * v
+    c /= NODES
+    sx /= TILE * _SUM_U2 * grid_mm
+    sy /= TILE * _SUM_U2 * grid_mm
+    above = -np.inf
+    for m in range(NODES):
+        u, v = m % TILE - 0.5 * (TILE - 1), m // TILE - 0.5 * (TILE - 1)
+        above = max(above, best[m] - (c + grid_mm * (sx * u + sy * v)))
+    if not np.isfinite(c):  # a node off the grid (-inf)
+        return np.nan, 0.0, 0.0
+    return c + above, sx, sy
+
+
 @njit(cache=True, inline="always")
-def _plane_prunes(run, mx, my, grid_mm, floor_mm, a, best, idx):
-    """No node of the tile can take the run: its tangent plane of G* at the tile centre (bounds.bound_plane)
-    is nowhere below a node's best (an exact tie can still move a node's line to an earlier segment).
-    The counts are integer sums, which the vector units take without reordering floating-point sums."""
-    gc, gx, gy, ok = bound_plane(mx, my, run)
+def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
+    """(prunes, j_lo, j_hi). Prunes: no node of the tile can take the run, its tangent plane of G* at the tile
+    centre (bounds.bound_plane: plane = (G*, dG*/dx, dG*/dy, ok)) being nowhere below a node's best (an exact
+    tie can still move a node's line to an earlier segment). First against the tile's cover plane
+    (_tile_cover) at the tile's corners: a plane above it there by more than PLANE_MARGIN_MM, which the
+    rounding of both planes cannot reach, is above every node. Else node by node: the counts are integer
+    sums, which the vector units take without reordering floating-point sums. Rows j_lo .. j_hi of the tile
+    hold every node where the plane is not above best by PLANE_MARGIN_MM: elsewhere G* (at or above its
+    plane) cannot win, so _keep need not evaluate it."""
+    gc, gx, gy, ok = plane
     if not ok:
-        return False
+        return False, 0, TILE - 1
+    half_mm = 0.5 * (TILE - 1) * grid_mm
+    if gc - cover[0] - half_mm * (abs(gx - cover[1]) + abs(gy - cover[2])) > PLANE_MARGIN_MM:
+        return True, 0, TILE - 1
     below = 0
     level = 0
+    j_lo, j_hi = TILE, -1
     for m in range(NODES):
         plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
                     floor_mm)
         below += plane < best[m]
         level += plane == best[m]
+        near = plane - PLANE_MARGIN_MM < best[m]
+        j_lo, j_hi = min(j_lo, m // TILE if near else TILE), max(j_hi, m // TILE if near else -1)
     if below > 0:
-        return False
+        return False, j_lo, j_hi
     if level == 0:
-        return True
+        return True, j_lo, j_hi
     for m in range(NODES):
         plane = max(gc + grid_mm * (gx * (m % TILE - 0.5 * (TILE - 1)) + gy * (m // TILE - 0.5 * (TILE - 1))),
                     floor_mm)
         if plane == best[m] and idx[m] > a:
-            return False
-    return True
+            return False, j_lo, j_hi
+    return True, j_lo, j_hi
 
 
 # rows of a block's table of its runs (_near), laid out for the scan of each tile
@@ -128,10 +166,10 @@ def _near(listed, runs):
 
 @njit(cache=True)
 def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
-    """STEP 3 for the tile centred at (mx, my): the listed runs whose distance bound is below top, with
-    that bound and their key (G where the line passes closest to the centre) into ws; (count, the lowest
-    key's place). The first loop has no branches, for the vector units."""
-    near, scratch, cand, cand_bound, cand_key = ws.near, ws.scratch, ws.cand, ws.cand_bound, ws.cand_key
+    """STEP 3 for the tile centred at (mx, my): every listed run's distance bound and key (G where the line
+    passes closest to the centre) into ws.scratch; returns the lowest key of the runs whose bound is below
+    top (the candidates; inf where there is none). Loops without branches, for the vector units."""
+    near, scratch = ws.near, ws.scratch
     count = listed.shape[0]
     for p in range(count):
         px, py = mx - near[NX0, p], my - near[NY0, p]
@@ -145,14 +183,23 @@ def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
         w = min(max(d - core, 0.0), corner)
         scratch[0, p] = max(bound, floor_mm) if d <= core + corner + e_tile else np.inf
         scratch[1, p] = near[NZ0, p] + t * near[NDZ, p] + corner - math.sqrt(corner * corner - w * w)
-    n, first = 0, 0
+    key_min = np.inf
     for p in range(count):
-        if scratch[0, p] < top:
-            cand[n], cand_bound[n], cand_key[n] = listed[p], scratch[0, p], scratch[1, p]
-            if cand_key[n] < cand_key[first]:
-                first = n
-            n += 1
-    return n, first
+        key_min = min(key_min, scratch[1, p] if scratch[0, p] < top else np.inf)
+    return key_min
+
+
+@njit(cache=True, inline="always")
+def _select(count, scratch, top, top_now, key0, group, chosen):
+    """The candidates (bound below top) of the group (key at most key0) or else the others whose bound is
+    not above top_now: their places in the block's list into chosen, in order; their number. Without
+    branches: the place is written at every step, the count advances only where it is taken."""
+    n = 0
+    for p in range(count):
+        chosen[n] = p
+        bound, key = scratch[0, p], scratch[1, p]
+        n += (bound < top) & ((key <= key0) if group else ((key > key0) & (bound <= top_now)))
+    return n
 
 
 @njit(cache=True)
@@ -208,23 +255,30 @@ def workspace(listed, runs):
     """A block's scratch arrays (one set per thread)."""
     n = listed.shape[0]
     return Workspace(_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
-                     np.empty(n, np.int64), np.empty(n), np.empty(n), np.empty((n, NODES)), np.empty((n, NODES)),
+                     np.empty(n, np.int64), np.empty((4, n)), np.empty((n, NODES)), np.empty((n, NODES)),
                      np.empty(n, np.int64), np.empty(n, np.int64), np.empty(NODES), np.empty(NODES),
                      np.empty(NODES, np.bool_))
 
 
 @njit(cache=True, inline="always")
-def _keep(q, kept, i0, j0, zm, core, cand, runs, ws):
-    """Candidate q becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws."""
-    run = run_row(runs, cand[q])
+def _keep(c, kept, i0, j0, zm, core, runs, ws, rows, counts):
+    """Run c becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws; for a ball only at the
+    rows (j_lo, j_hi) of the tile where it may win (_plane_prunes), G* = inf at the others."""
+    run = run_row(runs, c)
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
+    g_star, s_star = ws.g_star[kept], ws.s_star[kept]
     if core == 0.0:
-        ball_bounds(origin_x, origin_y, grid_mm, i0, j0, TILE, TILE, run, floor_mm, ws.g_star[kept], ws.s_star[kept])
+        m0, m1 = rows[0] * TILE, (rows[1] + 1) * TILE
+        g_star[:m0], g_star[m1:], s_star[:m0], s_star[m1:] = np.inf, np.inf, 0.0, 0.0
+        ball_bounds(origin_x, origin_y, grid_mm, i0, j0 + rows[0], TILE, rows[1] - rows[0] + 1, run, floor_mm,
+                    g_star[m0:m1], s_star[m0:m1])
+        counts[2] += m1 - m0
     else:
+        counts[2] += NODES
         for m in range(NODES):
             ws.g_star[kept, m], ws.s_star[kept, m] = bound_node(origin_x + (i0 + m % TILE) * grid_mm,
                                                                 origin_y + (j0 + m // TILE) * grid_mm, run, floor_mm)
-    ws.kept[kept] = cand[q]
+    ws.kept[kept] = c
 
 
 @njit(cache=True)
@@ -234,14 +288,14 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     Workspace."""
     z, line, tile_max, lines = zm.z, zm.line, zm.tile_max, bt.lines
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
-    best, idx, cand, cand_bound = ws.best, ws.idx, ws.cand, ws.cand_bound
+    best, idx, cand = ws.best, ws.idx, ws.cand
     ny, nx = z.shape
     e_tile = 0.5 * (TILE - 1) * grid_mm * math.sqrt(2.0)
     i0, j0 = tx * TILE, ty * TILE  # node (i0 + m % TILE, j0 + m // TILE) is at origin + (i, j) g, as everywhere
     mx, my = origin_x + (i0 + 0.5 * (TILE - 1)) * grid_mm, origin_y + (j0 + 0.5 * (TILE - 1)) * grid_mm
     top = tile_max[ty, tx]
-    n, first = _candidates(mx, my, e_tile, top, floor_mm, listed, ws)
-    if n == 0:
+    key_min = _candidates(mx, my, e_tile, top, floor_mm, listed, ws)
+    if key_min == np.inf:
         return
     for m in range(NODES):
         j, i = j0 + m // TILE, i0 + m % TILE
@@ -250,21 +304,26 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         ws.qx[m], ws.qy[m] = origin_x + i * grid_mm, origin_y + j * grid_mm
     # the first group: the runs whose key is within GROUP_MM of the lowest, so that each node's best is nearly
     # final before the other runs are pruned against it
-    key0 = ws.cand_key[first] + GROUP_MM
-    kept = 0
-    for q in range(n):
-        if ws.cand_key[q] <= key0:
-            _keep(q, kept, i0, j0, zm, bt.core, cand, runs, ws)
+    key0 = key_min + GROUP_MM
+    count = listed.shape[0]
+    group = _select(count, ws.scratch, top, top, key0, True, cand)
+    for q in range(group):
+        _keep(listed[cand[q]], q, i0, j0, zm, bt.core, runs, ws, (0, TILE - 1), counts)
+    top_now = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
+    cover = _tile_cover(best, grid_mm)
+    kept = group
+    others = _select(count, ws.scratch, top, top_now, key0, False, cand)
+    if bt.core == 0.0:
+        ball_planes(mx, my, runs, listed, cand, others, ws.planes)
+    for q in range(others):
+        c = listed[cand[q]]
+        state = ws.planes[3, q] if bt.core == 0.0 else 2.0
+        plane = bound_plane(mx, my, run_row(runs, c)) if state == 2.0 else (ws.planes[0, q], ws.planes[1, q],
+                                                                             ws.planes[2, q], state == 1.0)
+        prunes, j_lo, j_hi = _plane_prunes(plane, grid_mm, floor_mm, starts[c], best, idx, cover)
+        if not prunes:
+            _keep(c, kept, i0, j0, zm, bt.core, runs, ws, (j_lo, j_hi), counts)
             kept += 1
-    group = kept
-    top = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
-    for q in range(n):
-        if ws.cand_key[q] <= key0 or cand_bound[q] > top or _plane_prunes(run_row(runs, cand[q]), mx, my, grid_mm,
-                                                                          floor_mm, starts[cand[q]], best, idx):
-            continue
-        _keep(q, kept, i0, j0, zm, bt.core, cand, runs, ws)
-        kept += 1
-    counts[2] += kept * NODES
     _sweep_runs(group, kept, zm, bt, starts, runs, ws, counts)
     new_top = -np.inf
     for m in range(NODES):
