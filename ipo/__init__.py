@@ -9,6 +9,7 @@ never machine/:
 | `ipo.roughness` | 002's surface-roughness model of ball-end finishing (read by the machine-file check and the feed limiter) | 002 eq. 1–6 |
 | `ipo.contracts` | what every stage shares: the stepper contract (`Steps`) and the period stream (`PeriodBatch`, `LIMIT_*`) | 000 §2.2 |
 | `ipo.segments` | the distance of a point from a segment, one compiled kernel for the rooms that measure deviations from polylines | — |
+| `ipo.numpy_kernels` | numpy's linspace and interp as compiled kernels, to the bit (compiled code that picks the same parameters as a numpy path) | — |
 | `ipo.nurbs` | the NURBS kernel: vectorised evaluation, the compiled per-period form, sub-curves | 000 eq. 1–4 |
 | `ipo.interp` | constant-chord interpolation: recursive, Taylor, constant du, line/arc steppers, reference word and pulse, the chord study | 000 eq. 7–16, 002 eq. 7 |
 | `ipo.feed` | the feed stage: pieces and corner blends, samples, limits (002's roughness limiter), look-ahead, S-curve, period output, the planner; the controller twins beside it (`grbl_twin/`, `linuxcnc_twin/`) and the registry that picks one (`profiles`) | 002 eq. 1–6 |

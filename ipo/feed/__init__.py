@@ -7,7 +7,8 @@ machine stands).
 - `intake`: motions read but not yet built (each NURBS as its parts, with its driver),
   built into pieces and handed on with their drivers; where an event read now happens.
 - `split`: a NURBS with C0 corners inside it, as its parts (and the check that refuses a
-  curve the planner cannot follow).
+  curve the planner cannot follow); `table_verdict`: whether sampling's table holds a degree-2
+  part, compiled, for that check on the thousands of groups `vcnc fit` writes.
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
   the corners next to arcs and NURBS (`curve_corner`), the curvature-continuous corners of S-curve mode
   (`curvature_continuous` between lines, `g2_chains` through runs of short lines, `g2_joints` next
@@ -36,5 +37,5 @@ machine stands).
   the same interface; `profiles`: the machine file's `planner` -> its plan_periods
   (ipo.config.PLANNERS).
 
-May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.segments, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
+May import: ipo.config, ipo.config_values, ipo.contracts, ipo.errors, ipo.grbl_settings, ipo.roughness, ipo.segments, ipo.numpy_kernels, ipo.nurbs, ipo.interp, ipr.entities, numpy, numba.
 """

@@ -30,6 +30,7 @@ import numpy as np
 
 from ipo.errors import IpoError
 from ipo.feed.sampling import nurbs_table
+from ipo.feed.table_verdict import DEGREE as VERDICT_DEGREE, tabled
 from ipo.nurbs.kernel import curve_points
 from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import Line, Nurbs
@@ -160,12 +161,18 @@ def _with_moving_ends(e: Nurbs) -> list[Nurbs | Line]:
 def planning_problem(e: Nurbs, end_gap_mm: float = 0.0) -> str | None:
     """Why the feed stage cannot walk e, or None: its parts' arc-length tables (with the
     planner's end gap, ipo.feed.planner.nurbs_end_gap_mm) are what it builds first, so a
-    controller that checks them before moving never stops mid-program."""
+    controller that checks them before moving never stops mid-program. A degree-2 part that
+    ipo.feed.table_verdict is sure of is not tabled here (the fit asks about thousands)."""
     try:
         for part in corner_parts(e):
-            if isinstance(part, Nurbs):
+            if isinstance(part, Nurbs) and not _surely_tabled(part, end_gap_mm):
                 nurbs_table(part, end_gap_mm)
     except IpoError as err:
         return err.message
     return None
 
+
+def _surely_tabled(part: Nurbs, end_gap_mm: float) -> bool:
+    """Copies: one compiled signature (the parts' arrays are read-only, the programs' may not be)."""
+    return part.degree == VERDICT_DEGREE and tabled(np.array(part.knots, dtype=float), np.array(part.weights, dtype=float),
+                                                    np.array(part.points, dtype=float), float(end_gap_mm))

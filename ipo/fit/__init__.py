@@ -19,5 +19,5 @@
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).
 - `written`: a fit as the G06.2 or G5.2 blocks that write it, and the curve exactly as written.
 
-May import: ipo.errors, ipo.nurbs, ipr, numpy, numba.
+May import: ipo.errors, ipo.numpy_kernels, ipo.nurbs, ipr, numpy, numba.
 """

@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from ipo.fit.rational import RationalFit, SpanPolynomials
+from ipo.numpy_kernels import interp_at, linspace_into
 
 SPAN_PROBES = 257
 SAMPLE_SPACING_MM = 0.01
@@ -115,30 +116,97 @@ def two_way_mm(samples, gap_mm, path, exact_above_mm):
     return worst
 
 
+@njit(cache=True)
+def _point_at(poly, starts, u, out):
+    """C(u) into out (3,) from the span polynomials (SpanPolynomials.curve_of, the same arithmetic)."""
+    p = poly.shape[1] - 1
+    k = min(max(np.searchsorted(starts, u, side="right") - 1, 0), starts.shape[0] - 1)
+    x = u - starts[k]
+    for d in range(4):
+        acc = poly[k, p, d]
+        for power in range(p - 1, -1, -1):
+            acc = acc * x + poly[k, power, d]
+        out[d] = acc
+    for d in range(3):
+        out[d] /= out[3]
+
+
+@njit(cache=True)
+def _samples(poly, starts, u_end):
+    """curve_samples' points and gaps from the span polynomials (poly, starts) ending at u_end."""
+    n_spans = starts.shape[0]
+    counts = np.empty(n_spans, np.int64)
+    probes = np.empty((n_spans, SPAN_PROBES))  # each span's samples at equal arc length (the first counts[i])
+    u = np.empty(SPAN_PROBES)
+    s = np.empty(SPAN_PROBES)
+    at, prev = np.empty(4), np.empty(4)
+    for i in range(n_spans):
+        b = starts[i + 1] if i + 1 < n_spans else u_end
+        linspace_into(starts[i], b, SPAN_PROBES, u, 0)
+        s[0] = 0.0
+        _point_at(poly, starts, u[0], prev)
+        for j in range(1, SPAN_PROBES):
+            _point_at(poly, starts, u[j], at)
+            d0, d1, d2 = at[0] - prev[0], at[1] - prev[1], at[2] - prev[2]
+            s[j] = s[j - 1] + np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+            prev[:] = at
+        counts[i] = int(min(MAX_SAMPLES_PER_SPAN, max(2.0, np.ceil(s[-1] / SAMPLE_SPACING_MM) + 1)))
+        if counts[i] > SPAN_PROBES:
+            probes = _wider(probes, counts[i])
+        row = probes[i]
+        if s[-1] > 0:
+            linspace_into(0.0, s[-1], counts[i], row, 0)
+            for j in range(counts[i]):
+                row[j] = interp_at(row[j], s, u)
+        else:
+            linspace_into(starts[i], b, counts[i], row, 0)
+    total = 1 + np.sum(counts - 1)
+    points = np.empty((total, 3))
+    gaps = np.empty(total - 1)
+    mid, a, c = np.empty(4), np.empty(4), np.empty(4)
+    m = 0
+    for i in range(n_spans):
+        row = probes[i]
+        _point_at(poly, starts, row[0], a)
+        if i == 0:
+            points[0] = a[:3]
+            m = 1
+        for j in range(1, counts[i]):
+            _point_at(poly, starts, row[j], c)
+            _point_at(poly, starts, 0.5 * (row[j - 1] + row[j]), mid)
+            gaps[m - 1] = _chord_gap(mid, a, c)
+            points[m] = c[:3]
+            m += 1
+            a[:] = c
+    return points, gaps
+
+
+@njit(cache=True)
+def _wider(rows, width):
+    if rows.shape[1] >= width:
+        return rows
+    out = np.empty((rows.shape[0], width))
+    out[:, :rows.shape[1]] = rows
+    return out
+
+
+@njit(cache=True)
+def _chord_gap(x, a, b):
+    """Distance of x from the chord a-b (numpy's sums: the dot products first plus last, then the middle)."""
+    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    xa0, xa1, xa2 = x[0] - a[0], x[1] - a[1], x[2] - a[2]
+    len2 = (ab0 * ab0 + ab2 * ab2) + ab1 * ab1
+    t = min(max(((xa0 * ab0 + xa2 * ab2) + xa1 * ab1) / (len2 if len2 > 0 else 1.0), 0.0), 1.0)
+    d0, d1, d2 = x[0] - (a[0] + t * ab0), x[1] - (a[1] + t * ab1), x[2] - (a[2] + t * ab2)
+    return np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+
+
 def curve_samples(fit: RationalFit) -> tuple[np.ndarray, np.ndarray]:
     """Samples of the curve evenly spaced along it (at most SAMPLE_SPACING_MM apart) and each chord's
-    gap to the curve."""
+    gap to the curve: each span at SPAN_PROBES equal steps in u, then again at equal chord length."""
     spans = SpanPolynomials(fit.knots, fit.degree)
-    at = spans.curve_of(spans.homogeneous(fit.points * fit.weights[:, None], fit.weights))
-    ends = np.append(spans.starts, fit.knots[-1])
-    out, gaps = [], []
-    for a, b in zip(ends[:-1], ends[1:]):
-        u = np.linspace(a, b, SPAN_PROBES)
-        p = at(u)
-        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))])
-        n = int(min(MAX_SAMPLES_PER_SPAN, max(2, np.ceil(s[-1] / SAMPLE_SPACING_MM) + 1)))
-        u = np.interp(np.linspace(0.0, s[-1], n), s, u) if s[-1] > 0 else np.linspace(a, b, n)
-        p = at(u)
-        gaps.append(_chord_gap(at(0.5 * (u[:-1] + u[1:])), p[:-1], p[1:]))
-        out.append(p if not out else p[1:])
-    return np.vstack(out), np.concatenate(gaps)
-
-
-def _chord_gap(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ab = b - a
-    len2 = np.einsum("ij,ij->i", ab, ab)
-    t = np.clip(np.einsum("ij,ij->i", x - a, ab) / np.where(len2 > 0, len2, 1.0), 0.0, 1.0)
-    return np.linalg.norm(x - (a + t[:, None] * ab), axis=1)
+    poly = spans.homogeneous(fit.points * fit.weights[:, None], fit.weights)
+    return _samples(np.ascontiguousarray(poly), np.ascontiguousarray(spans.starts, dtype=float), float(fit.knots[-1]))
 
 
 def written_deviation_mm(fit: RationalFit, path: np.ndarray, exact_above_mm: float = np.inf) -> float:
