@@ -223,8 +223,8 @@ def _blend_points(loc: np.ndarray, sv: np.ndarray, pieces: Pieces, pstart: np.nd
     (loc does not decrease: each blend's periods are one run)."""
     first = np.flatnonzero(np.diff(loc, prepend=-1, append=-1))
     ctrl, tab_s, tab_u = [], [], []
-    for p in loc[first[:-1]]:
-        drv = nurbs[int(pieces.nurbs[p])]
+    for k in pieces.nurbs[loc[first[:-1]]].tolist():
+        drv = nurbs[k]
         ctrl.append(drv.entity.points)
         tab_s.append(drv.table.s)
         tab_u.append(drv.table.u)

@@ -100,7 +100,7 @@ class Intake:
                       g2_limits=self.corners.g2_limits)
         self._next_index += built.drivers.added
         pc = built.pieces
-        handed = {int(i): built.drivers[int(i)] for i in np.unique(pc.nurbs[pc.nurbs >= 0])}
+        handed = {i: built.drivers[i] for i in np.unique(pc.nurbs[pc.nurbs >= 0]).tolist()}
         if final:
             motions.clear()
             self._drivers = {}

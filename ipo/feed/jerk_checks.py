@@ -9,7 +9,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ipo.feed.jerk_profile import phases, state, time_at
+from ipo.feed.jerk_profile import cruise_span, phases, state, time_at
 from ipo.feed.limits import STEP_JERK_SHARE
 
 # what a check finds over in a gap; each lowers its own scale (a straight gap that ends next to
@@ -45,7 +45,7 @@ def nominal(t, lo, hi, a_axis, j_axis):
 
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _step(kv, k, other, i):
     """|kv_i| step where sample k meets the sample `other` at the same arc length (a piece
     joint), 0 where there is none."""
@@ -71,7 +71,7 @@ def rates(s, kv):
     return rate
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _axes_over(geo, rate, k, motion, lim, curved, step):
     """Which limits some axis is over with the geometry of sample k (rate: _rates) and the
     state motion = (v, acc, jk) (speed, path acceleration and jerk): ACC_OVER | JERK_OVER, 0
@@ -96,6 +96,18 @@ def _axes_over(geo, rate, k, motion, lim, curved, step):
 
 
 @njit(cache=True)
+def _phases(seg, length):
+    """jerk_profile.phases of the segment as tuples: passed by value, where the five arrays cost
+    a reference count each per call of state and time_at, more than their arithmetic at a sample."""
+    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
+    return ((tt[0], tt[1], tt[2], tt[3], tt[4], tt[5], tt[6], tt[7]),
+            (ss[0], ss[1], ss[2], ss[3], ss[4], ss[5], ss[6], ss[7]),
+            (vv[0], vv[1], vv[2], vv[3], vv[4], vv[5], vv[6], vv[7]),
+            (aa[0], aa[1], aa[2], aa[3], aa[4], aa[5], aa[6], aa[7]),
+            (jj[0], jj[1], jj[2], jj[3], jj[4], jj[5], jj[6]))
+
+
+@njit(cache=True)
 def _x_ratio(v, xk):
     """v^2 / x_acc where the speed passes above x_acc at a sample (beyond rounding), else 1."""
     if v * v > xk * (1.0 + 1e-6) + 1e-9:
@@ -109,9 +121,11 @@ def above_x(s, x, lo, hi, seg):
     alone, for the peak's bisection in step 4 (the axes are checked once, at the peak it
     settles on)."""
     length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
+    tt, ss, vv, aa, jj = _phases(seg, length)
+    c0, c1 = cruise_span(tt, ss, vv, aa, jj)
     for k in range(lo, hi + 1):
-        v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+        d = min(max(s[k] - s[lo], 0.0), length)
+        v = vv[3] + 0.0 if c0 <= d < c1 else state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))[1]
         if _x_ratio(v, x[k]) > 1.0:
             return True
     return False
@@ -125,14 +139,18 @@ def check(geo, rate, x, lo, hi, seg, lim, curved, first):
     sample found over, for a caller that only asks whether the segment passes."""
     s, kv = geo.s, geo.kv
     length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
+    tt, ss, vv, aa, jj = _phases(seg, length)
+    c0, c1 = cruise_span(tt, ss, vv, aa, jj)
     worst, worst_ratio = -1, 1.0
     axis_over = 0
     no_step = np.zeros(3)
     step = np.zeros(3)
     for k in range(lo, hi + 1):
         d = min(max(s[k] - s[lo], 0.0), length)
-        _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
+        if c0 <= d < c1:
+            v, acc, jk = vv[3] + 0.0, 0.0, 0.0
+        else:
+            _, v, acc, jk = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))
         if k == hi:
             jk = jj[6]  # the end of the last ramp
         r = _x_ratio(v, x[k])
@@ -166,13 +184,15 @@ def anchor_peaks(s, x, lo, hi, seg, anchor):
     """Make the worst sample of every run of samples where the segment (Segment) passes above
     x_acc an anchor; whether any was new."""
     length = s[hi] - s[lo]
-    tt, ss, vv, aa, jj = phases(seg.va, seg.vp, seg.vb, length, seg.a, seg.j)
+    tt, ss, vv, aa, jj = _phases(seg, length)
+    c0, c1 = cruise_span(tt, ss, vv, aa, jj)
     new = False
     best, best_r = -1, 1.0
     for k in range(lo, hi + 2):
         r = 1.0
         if k <= hi:
-            v = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, min(max(s[k] - s[lo], 0.0), length)))[1]
+            d = min(max(s[k] - s[lo], 0.0), length)
+            v = vv[3] + 0.0 if c0 <= d < c1 else state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))[1]
             r = _x_ratio(v, x[k])
         if r > best_r:
             best, best_r = k, r

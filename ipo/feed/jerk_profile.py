@@ -164,7 +164,7 @@ def _advance(tt, ss, vv, aa, jj, q, dur):
         aa[q + 1] = 0.0  # each speed change ends with zero acceleration (rounding)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def state(tt, ss, vv, aa, jj, tau):
     """(arc length, speed, acceleration, jerk) at time tau of a segment given as phases."""
     q = 0
@@ -176,6 +176,20 @@ def state(tt, ss, vv, aa, jj, tau):
 
 
 @njit(cache=True)
+def cruise_span(tt, ss, vv, aa, jj):
+    """Arc lengths [from, to) at which state(time_at(dist)) is surely in the cruise (phase 3),
+    whose speed, acceleration and jerk are vv[3] + 0, 0 and 0 at any time in it (its acceleration
+    and jerk are exactly 0): time_at's phase by arc length is 3 there, and it solves to within
+    1e-12 of dist, far from the phase's end (1e-6 of the length), so the time is in phase 3 too.
+    Empty where the phases' start times are out of order (rounding of a vanishing phase). The
+    checks read every sample of a gap, most of them often in its cruise: there they skip the
+    solve (and the calls, whose five array arguments cost more than their arithmetic)."""
+    if aa[3] == 0.0 and jj[3] == 0.0 and tt[1] <= tt[3] and tt[2] <= tt[3]:
+        return max(ss[1], ss[2], ss[3]), ss[4] - 1e-6 * max(1.0, abs(ss[4]))
+    return 1.0, 0.0
+
+
+@njit(cache=True, inline="always")
 def time_at(tt, ss, vv, aa, jj, dist):
     """When the segment has covered dist: the phase by its start, then Newton's method on that
     phase's cubic, kept within it by bisection."""

@@ -246,12 +246,12 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
         if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
             d[j], bezier_blends[j] = found
     d_after = np.where(chain, 0.5 * length[1:], d)
-    for j in np.nonzero(chain)[0]:
-        bezier_blends[j] = chain_ctrl[j]
+    if chain.any():
+        bezier_blends.update(zip(np.flatnonzero(chain).tolist(), chain_ctrl[chain]))
     if g2_limits is not None:  # S-curve mode: joints next to arcs and NURBS curvature-continuous where faster
         cubic_r = np.zeros(n - 1)
-        for j in bezier_blends:
-            cubic_r[j] = d[j] / np.tan(0.5 * theta[j])
+        jb = np.fromiter(bezier_blends, np.int64, len(bezier_blends))
+        cubic_r[jb] = d[jb] / np.tan(0.5 * theta[jb])
         a_lim, j_lim = g2_limits[0], g2_limits[1]
         x_own = np.where(is_arc, np.minimum(a_lim * arcs.radius, (j_lim * arcs.radius**2) ** (2.0 / 3.0)), np.inf)
         x_own = np.minimum(x_own, feed**2)

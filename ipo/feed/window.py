@@ -91,9 +91,9 @@ class Window:
         first = int(self.samples.piece[0]) - self.piece_base
         if first > 0:
             kept = set(self.pieces.nurbs[first:].tolist())
-            for i in np.unique(self.pieces.nurbs[:first]):
+            for i in np.unique(self.pieces.nurbs[:first]).tolist():
                 if i >= 0 and i not in kept:
-                    self.drivers.pop(int(i), None)
+                    self.drivers.pop(i, None)
             self.pieces = self.pieces.take(slice(first, None))
             self.pstart = self.pstart[first:]
             self.piece_base += first

@@ -22,6 +22,9 @@ from machine.workpiece.envelope import TINY_MM2, ball_slanted, envelope, profile
 # columns of the run table
 AX, AY, AZ, BX, BY, BZ, INV_LL, CORE, CORNER, DROP = range(10)
 COLUMNS = 10
+# A bound is trusted to be below what it bounds only to this: far above its rounding (heights below 1000 mm:
+# 1e-13 mm), far below any height that matters. A bound above a node's best by less may still tie it.
+ROUNDING_MM = 1e-9
 
 
 @njit(cache=True, inline="always")
@@ -93,26 +96,33 @@ def bound_plane(qx, qy, run):
 
 
 @njit(cache=True, error_model="numpy")
-def ball_planes(qx, qy, runs, listed, chosen, n, out):
+def ball_planes(qx, qy, runs, listed, chosen, n, columns, out):
     """bound_plane at q for the ball runs listed[chosen[0 .. n-1]], into out's columns (G*, dG*/dx, dG*/dy,
     state: 1 a plane, 0 none, 2 a vertical line, for bound_plane itself): its arithmetic with selects in
     place of branches (envelope.ball_slanted for env_ball), so that the loop runs on the CPU's vector units
-    and gives the same bits (numpy's error model: a division by zero only reaches a discarded select)."""
+    and gives the same bits (numpy's error model: a division by zero only reaches a discarded select).
+    The runs' rows are first gathered into columns (scratch, 8 x n): a loop that gathers does not vectorize."""
+    ax, ay, az, bx, by, bz, rs, drop = columns[0], columns[1], columns[2], columns[3], columns[4], columns[5], \
+        columns[6], columns[7]
     for p in range(n):
         c = listed[chosen[p]]
-        ax, ay, az, bx, by, bz = runs[c, AX], runs[c, AY], runs[c, AZ], runs[c, BX], runs[c, BY], runs[c, BZ]
-        r = runs[c, CORNER]
-        dx, dy = bx - ax, by - ay
-        g, s = ball_slanted(qx, qy, ax, ay, az, bx, by, bz, r)
-        px, py = qx - ax - s * dx, qy - ay - s * dy
+        ax[p], ay[p], az[p], bx[p], by[p], bz[p] = runs[c, AX], runs[c, AY], runs[c, AZ], runs[c, BX], runs[c, BY], \
+            runs[c, BZ]
+        rs[p], drop[p] = runs[c, CORNER], runs[c, DROP]
+    g_out, gx_out, gy_out, state = out[0], out[1], out[2], out[3]
+    for p in range(n):
+        r = rs[p]
+        dx, dy = bx[p] - ax[p], by[p] - ay[p]
+        g, s = ball_slanted(qx, qy, ax[p], ay[p], az[p], bx[p], by[p], bz[p], r)
+        px, py = qx - ax[p] - s * dx, qy - ay[p] - s * dy
         rho = math.sqrt(px * px + py * py)
         w2 = r * r - rho * rho
         slope = rho / math.sqrt(w2 if w2 > 0.0 else 1.0)  # profile_slope(rho, 0, r) where it is finite
         flat = rho == 0.0
-        out[0, p] = g - runs[c, DROP]
-        out[1, p] = 0.0 if flat else slope * px / rho
-        out[2, p] = 0.0 if flat else slope * py / rho
-        out[3, p] = 2.0 if dx * dx + dy * dy <= TINY_MM2 else 1.0 if g < np.inf and (flat or w2 > 0.0) else 0.0
+        g_out[p] = g - drop[p]
+        gx_out[p] = 0.0 if flat else slope * px / rho
+        gy_out[p] = 0.0 if flat else slope * py / rho
+        state[p] = 2.0 if dx * dx + dy * dy <= TINY_MM2 else 1.0 if g < np.inf and (flat or w2 > 0.0) else 0.0
 
 
 @njit(cache=True, error_model="numpy")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from machine.workpiece.bounds import INV_LL, bound_line, proj
+from machine.workpiece.bounds import INV_LL, ROUNDING_MM, bound_line, proj
 from machine.workpiece.envelope import TINY_MM2, ball_slanted, envelope
 
 # The most segments a sweep evaluates at every node of a tile; a run slower than that across the tile
@@ -40,6 +40,14 @@ SWEEP_MARGIN = 1
 def wins(v, k, best, idx):
     """Segment k reaching v replaces (best, idx): lower, or as low and earlier (idx < 0: before the batch)."""
     return v < best or (v == best and idx >= 0 and k < idx)
+
+
+@njit(cache=True, inline="always")
+def may_win(g, best):
+    """A segment whose envelope is at least g (a bound: G or G*) may still take a node of height best, lower
+    or tied: g is not above best by ROUNDING_MM, whatever rounding put g one step above the envelope it
+    bounds (a tie decides the node's line: the first segment in program order reaching the height)."""
+    return g - ROUNDING_MM < best
 
 
 @njit(cache=True, inline="always")
@@ -82,12 +90,12 @@ def search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
     n = 1
     for k in range(lo + 1, b):
         n += 1
-        if not wins(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), k, best, idx):
+        if not may_win(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), best):
             break
         best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
     for k in range(lo - 1, a - 1, -1):
         n += 1
-        if not wins(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), a, best, idx):
+        if not may_win(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), best):
             break
         best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
     return best, idx, n
@@ -121,9 +129,9 @@ def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, be
         was, by = best[m], idx[m]
         g_left = bound_line(qx[m], qy[m], s_left, run, floor_mm)
         g_right = bound_line(qx[m], qy[m], s_right, run, floor_mm)
-        left = first | ((s_star[m] >= s_left) & (not wins(g_left, a, was, by)))
-        right = last | ((s_star[m] <= s_right) & (not wins(g_right, k_hi + 1, was, by)))
-        need[m] = wins(g_star[m], a, was, by) & (not (swept & left & right))
+        left = first | ((s_star[m] >= s_left) & (not may_win(g_left, was)))
+        right = last | ((s_star[m] <= s_right) & (not may_win(g_right, was)))
+        need[m] = may_win(g_star[m], was) & (not (swept & left & right))
 
 
 @njit(cache=True, error_model="numpy")
@@ -136,7 +144,7 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, n
     s_lo, s_hi = np.inf, -np.inf
     m0, m1 = best.shape[0], 0
     for m in range(best.shape[0]):
-        if wins(g_star[m], a, best[m], idx[m]):
+        if may_win(g_star[m], best[m]):
             s_lo, s_hi = min(s_lo, s_star[m]), max(s_hi, s_star[m])
             m0, m1 = min(m0, m), m + 1
     if s_lo > s_hi:

@@ -8,9 +8,11 @@ STEP 4  First the group of runs whose key is within GROUP_MM of the lowest (the 
         distance bound is above the tile's highest node or its tangent plane of G* at the tile centre is
         nowhere below a node (bounds.bound_plane: G* is convex in q; first at the tile's corners against a
         plane on or above every node, _tile_cover). For a ball, the kept runs one after
-        the other, the group's first, at all the rows of nodes each may lower at once
-        (search.sweep_ball); for a flat or a bull, per node: each node searches the runs whose G* there is
-        below its height, in the order of G* (search.search).
+        the other, the group's first in the order of their keys, at all the rows of nodes each may lower
+        at once (search.sweep_ball); for a flat or a bull, per node: each node searches the runs whose G*
+        there may still reach its height, in the order of G* (search.search). Whatever the order, a run is
+        skipped at a node only where its bound is above the node's height by bounds.ROUNDING_MM
+        (search.may_win), so a tie with an earlier segment is never lost to a bound one rounding high.
 A node's line is that of the first segment, in program order, that reached its new height: a segment
 takes a node that is lower, or as low by an earlier segment (ties between level passes are exact).
 """
@@ -22,9 +24,9 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ball_bounds, ball_planes,
-                                      bound_line, bound_node, bound_plane, proj, run_row)
-from machine.workpiece.search import search, sweep_ball, wins
+from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ROUNDING_MM, ball_bounds,
+                                      ball_planes, bound_line, bound_node, bound_plane, proj, run_row)
+from machine.workpiece.search import may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side
 NODES = TILE * TILE
@@ -35,9 +37,6 @@ COUNTS = 4
 # lowest point 0.2 mm aside): searches 4.59 M -> 3.96 M, kept runs 422 k -> 348 k against the closest run
 # alone; 10 um: 4.17 M, 371 k; 40 um: 3.69 M, 354 k (the group's own bounds grow).
 GROUP_MM = 0.020
-# A run's plane of G* above the tile's cover plane by more than this at the tile's corners is above every node:
-# far above the rounding of either plane (heights below 1000 mm: 1e-13 mm), far below any height that matters.
-PLANE_MARGIN_MM = 1e-9
 _SUM_U2 = sum((u - 0.5 * (TILE - 1)) ** 2 for u in range(TILE))  # sum of (u - 3.5)^2 over a tile's row
 
 
@@ -74,6 +73,7 @@ class Workspace(NamedTuple):
     idx: np.ndarray
     cand: np.ndarray
     planes: np.ndarray  # the planes of G* of the candidates that are not pruned by their bounds (_plane_prunes)
+    columns: np.ndarray  # their runs' rows, gathered (bounds.ball_planes)
     g_star: np.ndarray
     s_star: np.ndarray
     order: np.ndarray
@@ -107,20 +107,38 @@ def _tile_cover(best, grid_mm):
 
 
 @njit(cache=True, inline="always")
+def _over_cover(gc, gx, gy, cover, grid_mm):
+    """The plane gc + gx (x - mx) + gy (y - my) is above the tile's cover plane (_tile_cover) at the tile's
+    corners, so above every node, by more than ROUNDING_MM (which the rounding of both planes cannot reach)."""
+    return gc - cover[0] - 0.5 * (TILE - 1) * grid_mm * (abs(gx - cover[1]) + abs(gy - cover[2])) > ROUNDING_MM
+
+
+@njit(cache=True)
+def _under_cover(n, planes, cover, grid_mm, cand):
+    """Of the n candidates with a ball's planes (bounds.ball_planes), those whose plane is not above the
+    cover (_over_cover) moved to the front of cand and planes, in order; their number. Without branches."""
+    k = 0
+    for q in range(n):
+        gc, gx, gy, state = planes[0, q], planes[1, q], planes[2, q], planes[3, q]
+        cand[k], planes[0, k], planes[1, k], planes[2, k], planes[3, k] = cand[q], gc, gx, gy, state
+        k += not (state == 1.0 and _over_cover(gc, gx, gy, cover, grid_mm))
+    return k
+
+
+@njit(cache=True, inline="always")
 def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
     """(prunes, j_lo, j_hi). Prunes: no node of the tile can take the run, its tangent plane of G* at the tile
     centre (bounds.bound_plane: plane = (G*, dG*/dx, dG*/dy, ok)) being nowhere below a node's best (an exact
     tie can still move a node's line to an earlier segment). First against the tile's cover plane
-    (_tile_cover) at the tile's corners: a plane above it there by more than PLANE_MARGIN_MM, which the
+    (_tile_cover) at the tile's corners: a plane above it there by more than ROUNDING_MM, which the
     rounding of both planes cannot reach, is above every node. Else node by node: the counts are integer
     sums, which the vector units take without reordering floating-point sums. Rows j_lo .. j_hi of the tile
-    hold every node where the plane is not above best by PLANE_MARGIN_MM: elsewhere G* (at or above its
+    hold every node where the plane is not above best by ROUNDING_MM: elsewhere G* (at or above its
     plane) cannot win, so _keep need not evaluate it."""
     gc, gx, gy, ok = plane
     if not ok:
         return False, 0, TILE - 1
-    half_mm = 0.5 * (TILE - 1) * grid_mm
-    if gc - cover[0] - half_mm * (abs(gx - cover[1]) + abs(gy - cover[2])) > PLANE_MARGIN_MM:
+    if _over_cover(gc, gx, gy, cover, grid_mm):
         return True, 0, TILE - 1
     below = 0
     level = 0
@@ -130,7 +148,7 @@ def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
                     floor_mm)
         below += plane < best[m]
         level += plane == best[m]
-        near = plane - PLANE_MARGIN_MM < best[m]
+        near = plane - ROUNDING_MM < best[m]
         j_lo, j_hi = min(j_lo, m // TILE if near else TILE), max(j_hi, m // TILE if near else -1)
     if below > 0:
         return False, j_lo, j_hi
@@ -214,7 +232,7 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
             continue
         n = 0
         for r in range(r0, r1):  # the runs that may lower the node, sorted by G* (insertion: a few)
-            if wins(g_star[r, m], starts[kept[r]], best[m], idx[m]):
+            if may_win(g_star[r, m], best[m]):
                 k = n
                 while k > 0 and g_star[order[k - 1], m] > g_star[r, m]:
                     order[k] = order[k - 1]
@@ -225,7 +243,7 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
             r = order[k]
             c = kept[r]
             a = starts[c]
-            if not wins(g_star[r, m], a, best[m], idx[m]):
+            if not may_win(g_star[r, m], best[m]):
                 continue
             best[m], idx[m], evaluated = search((ws.qx[m], ws.qy[m]), s_star[r, m], best[m], idx[m], a, starts[c + 1],
                                                 run_row(runs, c), pos, tool, bt.stamp_first and a == 0)
@@ -255,8 +273,8 @@ def workspace(listed, runs):
     """A block's scratch arrays (one set per thread)."""
     n = listed.shape[0]
     return Workspace(_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
-                     np.empty(n, np.int64), np.empty((4, n)), np.empty((n, NODES)), np.empty((n, NODES)),
-                     np.empty(n, np.int64), np.empty(n, np.int64), np.empty(NODES), np.empty(NODES),
+                     np.empty(n, np.int64), np.empty((4, n)), np.empty((8, n)), np.empty((n, NODES)),
+                     np.empty((n, NODES)), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(NODES), np.empty(NODES),
                      np.empty(NODES, np.bool_))
 
 
@@ -307,6 +325,12 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     key0 = key_min + GROUP_MM
     count = listed.shape[0]
     group = _select(count, ws.scratch, top, top, key0, True, cand)
+    for q in range(1, group):  # in the order of their keys (insertion: a few), the lowest first
+        p, k = cand[q], q
+        while k > 0 and ws.scratch[1, cand[k - 1]] > ws.scratch[1, p]:
+            cand[k] = cand[k - 1]
+            k -= 1
+        cand[k] = p
     for q in range(group):
         _keep(listed[cand[q]], q, i0, j0, zm, bt.core, runs, ws, (0, TILE - 1), counts)
     top_now = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
@@ -314,7 +338,8 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     kept = group
     others = _select(count, ws.scratch, top, top_now, key0, False, cand)
     if bt.core == 0.0:
-        ball_planes(mx, my, runs, listed, cand, others, ws.planes)
+        ball_planes(mx, my, runs, listed, cand, others, ws.columns, ws.planes)
+        others = _under_cover(others, ws.planes, cover, grid_mm, cand)
     for q in range(others):
         c = listed[cand[q]]
         state = ws.planes[3, q] if bt.core == 0.0 else 2.0

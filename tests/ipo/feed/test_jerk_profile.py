@@ -12,7 +12,8 @@ from ruckig import ControlInterface, InputParameter, Ruckig, Trajectory
 
 from ipo.config import default_config
 from ipo.contracts import PeriodBatch
-from ipo.feed.jerk_profile import peak_speed, phases, reach, state, time_at, transition_distance, transition_time
+from ipo.feed.jerk_profile import (cruise_span, peak_speed, phases, reach, state, time_at, transition_distance,
+                                  transition_time)
 from ipo.feed.planner import ACCEL_USE, VELOCITY_USE, FeedPlanner, plan_periods
 from ipr.entities import Arc, Line, Nurbs, PathControl
 from tests.ipo.feed.test_nurbs_blend import distance_to_polyline
@@ -82,6 +83,27 @@ def test_a_segment_between_anchors_is_ruckigs_fastest_and_ends_where_it_should()
         d = rng.uniform(0, length, 20)
         assert np.allclose([state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, x))[0] for x in d], d,
                            atol=1e-9)
+
+
+def test_the_cruise_span_holds_what_solving_for_the_time_gives_to_the_bit():
+    """Inside cruise_span the checks take (vv[3] + 0, 0, 0) without time_at: at random arc lengths,
+    at the span's ends and next to the cruise's end, that is state(time_at(d)) bit for bit."""
+    rng = np.random.default_rng(11)
+    inside = 0
+    for _ in range(300):
+        va, vb = rng.uniform(0, 100, 2) * rng.choice([0.0, 1.0], 2)
+        a, j = rng.uniform(100, 2000), rng.uniform(1e4, 2e5)
+        length = transition_distance(va, vb, a, j) * rng.uniform(1, 5) + rng.uniform(0, 200)
+        vp = peak_speed(va, vb, length, max(va, vb) + rng.uniform(0, 80), a, j)
+        tt, ss, vv, aa, jj = phases(va, vp, vb, length, a, j)
+        c0, c1 = cruise_span(tt, ss, vv, aa, jj)
+        near_end = ss[4] - np.array([0.0, 1e-15, 1e-12, 1e-9, 1e-6]) * max(1.0, ss[4])
+        for d in np.concatenate([rng.uniform(0, length, 50), [c0, np.nextafter(c1, 0)], near_end]):
+            if c0 <= d < c1:
+                inside += 1
+                want = state(tt, ss, vv, aa, jj, time_at(tt, ss, vv, aa, jj, d))[1:]
+                assert (vv[3] + 0.0, 0.0, 0.0) == want
+    assert inside > 5000
 
 
 def run(ents, cfg=CFG):
