@@ -3,13 +3,14 @@
 `vcnc --help` lists the commands from machine.cli.SHORT_HELP without importing their modules;
 these tests check that listing against each command's own docstring, that help loads none of
 the heavy libraries, and that `vcnc warmup` compiles every kernel a `vcnc run --plot` and a
-`vcnc interp` of the demo use, so those compile nothing, and that interp and run load no library
-they do not use.
+`vcnc interp` of the demo and a `vcnc fit` of finish_g01 use, so those compile nothing, and that
+interp and run load no library they do not use.
 """
 from __future__ import annotations
 
 import importlib
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -52,21 +53,33 @@ def test_interp_and_run_load_no_library_they_do_not_use():
     assert _modules_loaded_by(["run", "programs/demo.nc", "--json"], ("scipy.linalg", "matplotlib")) == []
 
 
+@pytest.mark.slow
 def test_warmup_leaves_nothing_to_compile_for_the_demo(tmp_path):
+    """From an empty kernel cache, as after an install (the suite's other tests fill the default one)."""
     cli = [sys.executable, "-m", "machine.cli"]
-    warm = subprocess.run(cli + ["warmup"], capture_output=True, text=True, cwd=ROOT)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "kernels"))
+    warm = subprocess.run(cli + ["warmup"], capture_output=True, text=True, cwd=ROOT, env=env)
     assert warm.returncode == 0, warm.stderr
-    assert warm.stdout.startswith("vcnc warmup: ")
+    assert warm.stdout.startswith("vcnc warmup: ") and "compiled" in warm.stdout
     run = subprocess.run(cli + ["run", "programs/demo.nc", "--json", "--plot", str(tmp_path / "run.png")],
-                         capture_output=True, text=True, cwd=ROOT)
+                         capture_output=True, text=True, cwd=ROOT, env=env)
     assert run.returncode == 0, run.stderr
     assert json.loads(run.stdout)["state"] == "completed"
     assert "numba compiled" not in run.stderr
+    # `vcnc interp` compiles nothing either
+    assert _kernels_compiled_by(["interp", "programs/demo.nc", "--json"], env) == 0
+    # nor does a fit (its kernels took 20-30 s of CPU on the first fit after an install)
+    out = str(tmp_path / "fitted.nc")
+    fit = ["fit", "programs/finish_g01.nc", "--tol-mm", "0.01", "--jobs", "1", "-o", out]
+    assert _kernels_compiled_by(fit, env) == 0
+
+
+def _kernels_compiled_by(args: list[str], env: dict) -> int:
     code = ("from click.testing import CliRunner; from numba.core import event; from machine.cli import main; n = []; "
             "L = type('L', (event.Listener,), {'on_start': lambda s, e: None, 'on_end': lambda s, e: n.append(e)}); "
             "cm = event.install_listener('numba:compile', L()); cm.__enter__(); "
-            "r = CliRunner().invoke(main, ['interp', 'programs/demo.nc', '--json']); assert r.exit_code == 0, r.output; "
+            f"r = CliRunner().invoke(main, {args!r}); assert r.exit_code == 0, r.output; "
             "print(len(n))")
-    interp = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT)
-    assert interp.returncode == 0, interp.stderr
-    assert interp.stdout.strip() == "0"  # `vcnc interp` compiles nothing either
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env)
+    assert done.returncode == 0, done.stderr
+    return int(done.stdout.strip())

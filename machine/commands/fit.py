@@ -30,6 +30,16 @@ def controller_check(config):
     return partial(planning_problem, end_gap_mm=nurbs_end_gap_mm(config))
 
 
+def fit_text(text: str, tol_mm: float, config, **options):
+    """convert_text with the machine's limits (the sharp-corner test) and the controller's check."""
+    from ipo.fit.convert import convert_text
+
+    return convert_text(text, tol_mm, accel_mm_s2=min(a.max_accel_mm_s2 for a in config.axes),
+                        max_feed_mm_s=min(a.max_velocity_mm_s for a in config.axes),
+                        reach_mm_s=math.sqrt(sum(a.max_velocity_mm_s**2 for a in config.axes)),
+                        walkable=controller_check(config), **options)
+
+
 def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
     from ipo.fit.convert import NO_SAVING
 
@@ -90,7 +100,6 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
     from ipo.errors import IpoError
-    from ipo.fit.convert import convert_text
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")
@@ -102,15 +111,11 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
         config = default_config() if machine is None else load_config(machine)
     except ConfigError as err:
         raise click.ClickException(f"machine file {machine}: {err}") from None
-    accel = min(a.max_accel_mm_s2 for a in config.axes)
-    vmax = min(a.max_velocity_mm_s for a in config.axes)
-    reach = math.sqrt(sum(a.max_velocity_mm_s**2 for a in config.axes))
     with open(src, "rb") as f:
         text = f.read().decode("utf-8", "replace")
     try:
-        result, report = convert_text(text, tol_mm, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
-                                      accel_mm_s2=accel, max_feed_mm_s=vmax, reach_mm_s=reach,
-                                      dialect=dialect, walkable=controller_check(config))
+        result, report = fit_text(text, tol_mm, config, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
+                                  dialect=dialect)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)

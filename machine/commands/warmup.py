@@ -5,7 +5,7 @@ Why an explicit step: numba compiles a kernel on its first call and caches the m
 version and the CPU. The cache is therefore made on the machine that runs vcnc, once per install
 (and again after a kernel changes); it cannot ship in the repository. The warm-up also deletes
 the caches of other source versions unused for a week (an upgrade leaves the old one behind).
-Compiling the kernels a run uses takes 8-12 s of CPU time (numba's LLVM passes, mostly the
+Compiling the kernels takes 1.5-2 minutes of CPU time (97 s measured; numba's LLVM passes, mostly the
 look-ahead's `backward` and the steppers' `_walk`, which inline their callees). Done by
 `vcnc warmup` in the install command, a user's first `vcnc run` loads cached kernels instead
 of compiling them (measured figures: bench/run.py).
@@ -14,11 +14,13 @@ The warm-up runs a short built-in program through the same check → plan → in
 path as `vcnc run` (a G0, G1, a G2 and a G3 arc and a rational NURBS, each interpolator method,
 then once on each controller twin),
 with the digest that --plot and --report draw from and nothing written, so it compiles exactly the kernel signatures that path uses;
-then it steps the program at a constant chord as `vcnc interp` does, and interprets a few hundred
-plain moves, for the interpreter's own kernels (ipr.plain_runs).
+then it steps the program at a constant chord as `vcnc interp` does, interprets a few hundred
+plain moves, for the interpreter's own kernels (ipr.plain_runs), and fits a short wave of G1 moves
+as `vcnc fit` does (its kernels took 20-30 s of CPU on a first fit).
 """
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 import time
@@ -54,6 +56,12 @@ M2
 """
 
 
+# A wave of 0.5 mm G1 chords turning through a sharp corner: conic spans, a corner kept sharp, a group.
+FIT_WARMUP_PROGRAM = "G21 G17 G90 G94\nG0 X0 Y0 Z0\nG1 F3000\n" + "".join(
+    f"X{0.5 * i:.4f} Y{(5 * math.sin(0.05 * i) if i < 60 else 5 * math.sin(3) + 0.5 * (i - 60)):.4f} "
+    f"Z{math.cos(0.03 * i) - 1:.4f}\n" for i in range(1, 120)) + "M2\n"
+
+
 @click.command("warmup")
 @click.option("--machine", "machine_file", type=click.Path(exists=True, dir_okay=False),
               help="Machine TOML (default: built in).")
@@ -67,6 +75,7 @@ def command(machine_file):
     from ipo.interp.chord_study import study
     from ipr import parse_text
     from ipr.interpreter import SCAN_LINES
+    from machine.commands.fit import fit_text
     from machine.controller import Controller
     from machine.report.digest import DigestSink
 
@@ -94,6 +103,8 @@ def command(machine_file):
         # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
         # program as short as the one above does not reach
         parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
+        # `vcnc fit`'s kernels (its spans, deviation bounds and the controller's check of each group)
+        fit_text(FIT_WARMUP_PROGRAM, 0.01, config, jobs=1)
     removed, freed = prune_other_versions(Path(os.environ["NUMBA_CACHE_DIR"]), OLD_CACHE_S)
     if removed:
         click.echo(f"vcnc warmup: removed {removed} cache(s) of other vcnc versions ({freed / 1e6:.1f} MB)")
