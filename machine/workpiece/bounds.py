@@ -137,6 +137,7 @@ def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_ou
     dx, dy, dz = bx - ax, by - ay, bz - az
     a = max(dx * dx + dy * dy, 1e-300)  # a vertical line: t is then 0 or 1 by the sign of zl's numerator
     l2 = a + dz * dz
+    inv_l2 = 1.0 / l2  # s* steers which segments are evaluated, not their heights: a rounding off is harmless
     top = az + r - run[DROP]
     for m in range(ni * nj):  # one loop: a row of 8 nodes is too short for the vector loop (2.5x slower)
         qy = origin_y + (j0 + m // ni) * grid_mm
@@ -150,7 +151,7 @@ def ball_bounds(origin_x, origin_y, grid_mm, i0, j0, ni, nj, run, floor_mm, g_ou
         sq = math.sqrt(max(disc, 0.0))
         rising = sq - b > 0.0  # one division of the three cases' (selects compute every case's operands)
         zl = (-(b + sq) if b > 0.0 else c if rising else -b) / (a if b > 0.0 else max(sq - b, 1e-300) if rising else a)
-        t = min(max((k + zl * dz) / l2, 0.0), 1.0)
+        t = min(max((k + zl * dz) * inv_l2, 0.0), 1.0)
         ex, ey = px - t * dx, py - t * dy
         w = r2 - (ex * ex + ey * ey)
         v = top + t * dz - math.sqrt(max(w, 0.0))

@@ -13,7 +13,7 @@ sweep_ball At every node of a tile the run may lower (the rows from the first su
            for a ball: the segments from the one before the lowest s* of those nodes to the one after the
            highest, each at all those nodes in one loop without branches (envelope.ball_slanted: the CPU's
            vector units take four nodes at a time), then a search at each node where G beyond those
-           segments still reaches the node's best. On finish_g01.nc (one batch, one thread, cycle counters)
+           segments still reaches the node's best, passing over the segments swept. On finish_g01.nc (one batch, one thread, cycle counters)
            a search took about 700 cycles (its branches and square roots in a chain), a node of a swept
            segment about 25 (5 ns in a loop of its own): the group's 3.3 M searches became 0.53 M segments
            swept at 64 nodes and 0.14 M searches; sweeping every kept run, only at the rows it may lower,
@@ -77,27 +77,42 @@ def segment_at(s, a, b, run, pos):
 
 
 @njit(cache=True, inline="always")
-def search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
+def search(q, s_star, best, idx, a, b, run, pos, tool, stamp, done):
     """(best, idx, envelopes evaluated) at node q = (x, y) over the segments a .. b-1 of a run (STEP 4);
-    tool: (core, corner, floor_mm)."""
+    tool: (core, corner, floor_mm); done: the segments (first, last) already evaluated at q (none where
+    first > last), passed over (the result is the lowest envelope, ties to the earliest segment, in any order
+    of evaluation; G's test at a segment's near end only ends a side early, G rising away from s*)."""
     qx, qy = q
     floor_mm = tool[2]
+    d_lo, d_hi = done
     if run[INV_LL] == 0.0:  # standing still: only the stream's first stamp
         best, idx = try_segment(qx, qy, a, best, idx, pos, tool, stamp)
         return best, idx, 1
     lo = segment_at(s_star, a, b, run, pos)
-    best, idx = try_segment(qx, qy, lo, best, idx, pos, tool, stamp)
-    n = 1
-    for k in range(lo + 1, b):
+    n = 0
+    if not d_lo <= lo <= d_hi:
+        best, idx = try_segment(qx, qy, lo, best, idx, pos, tool, stamp)
+        n = 1
+    k = lo + 1
+    while k < b:
+        if d_lo <= k <= d_hi:
+            k = d_hi + 1
+            continue
         n += 1
         if not may_win(bound_line(qx, qy, proj(pos, k, run), run, floor_mm), best):
             break
         best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
-    for k in range(lo - 1, a - 1, -1):
+        k += 1
+    k = lo - 1
+    while k >= a:
+        if d_lo <= k <= d_hi:
+            k = d_lo - 1
+            continue
         n += 1
         if not may_win(bound_line(qx, qy, proj(pos, k + 1, run), run, floor_mm), best):
             break
         best, idx = try_segment(qx, qy, k, best, idx, pos, tool, stamp)
+        k -= 1
     return best, idx, n
 
 
@@ -172,6 +187,6 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, n
     for m in range(best.shape[0]):
         if need[m]:
             best[m], idx[m], evaluated = search((qx[m], qy[m]), s_star[m], best[m], idx[m], a, b, run, pos, tool,
-                                                stamp)
+                                                stamp, (k_lo, k_hi))
             counts[1] += 1
             counts[2] += evaluated

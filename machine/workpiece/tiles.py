@@ -246,7 +246,7 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
             if not may_win(g_star[r, m], best[m]):
                 continue
             best[m], idx[m], evaluated = search((ws.qx[m], ws.qy[m]), s_star[r, m], best[m], idx[m], a, starts[c + 1],
-                                                run_row(runs, c), pos, tool, bt.stamp_first and a == 0)
+                                                run_row(runs, c), pos, tool, bt.stamp_first and a == 0, (1, 0))
             counts[1] += 1
             counts[2] += evaluated
         top = max(top, best[m])
