@@ -12,7 +12,8 @@ machine stands).
 - `pieces`: lines, arcs and G64 corner blends on one arc-length parameter; `blends/` holds
   the corners next to arcs and NURBS (`curve_corner`), the curvature-continuous corners of S-curve mode
   (`curvature_continuous` between lines, `g2_chains` through runs of short lines, `g2_joints` next
-  to arcs and NURBS) and their compiled kernels (`compiled`).
+  to arcs and NURBS) and their compiled kernels (`compiled`); `arc_corners`: the cubic corners where
+  an arc meets a line or an arc, all of a build's in one compiled pass (curve_corner's rule, to the bit).
 - `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
 - `analytic`: the analytic pieces' points, tangents and curvature by arc length, compiled;
   `arcs`: G2/G3 arcs laid out as such pieces (and trimmed by their blends), compiled.

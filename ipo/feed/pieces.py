@@ -39,6 +39,7 @@ from ipo.feed.blends.curvature_continuous import BEZIER5_KNOTS, g2_control_point
 from ipo.feed.blends.g2_chains import CHAIN_MAX_RAD, chain_runs, g2_chains
 from ipo.feed.blends.g2_joints import g2_joint
 from ipo.feed.blends.curve_corner import Side, corner_blend
+from ipo.feed.arc_corners import arc_corner_blends
 from ipo.feed.analytic import Geometry, frame, point_tangent, points_along_piece
 from ipo.feed.arcs import ArcSpecs, arc_pieces, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
@@ -238,13 +239,21 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     movable = line_like | is_arc
     at_curve = (((movable[:-1] & movable[1:] & ~both) | is_nurbs[:-1] | is_nurbs[1:]) & (tol[:-1] > 0)
                 & (length[:-1] > 0) & (length[1:] > 0) & (theta > _CURVE_BLEND_MIN_RAD) & (theta < _REVERSAL_RAD))
-    bezier_blends = {}
-    for j in np.nonzero(at_curve)[0]:
+    jc = np.nonzero(at_curve)[0]
+    ja = jc[~(is_nurbs[jc] | is_nurbs[jc + 1])]  # lines and arcs: all at once (ipo.feed.arc_corners)
+    ok, d_a, ctrl_a = arc_corner_blends(arcs.geometry, is_arc, start, unit, length, end, ja, theta[ja], tol[ja],
+                                        avail[ja])
+    ok &= d_a / np.tan(0.5 * theta[ja]) >= min_blend_radius_mm
+    found_at = dict(zip(ja[ok].tolist(), zip(d_a[ok], ctrl_a[ok])))
+    for j in np.setdiff1d(jc, ja).tolist():
         before = _side(ents[j], motions[j][2], nurbs, arcs, start, unit, length, j, from_end=True)
         after = _side(ents[j + 1], motions[j + 1][2], nurbs, arcs, start, unit, length, j + 1, from_end=False)
         found = corner_blend(before, after, end[j], float(theta[j]), float(tol[j]), float(avail[j]))
         if found is not None and found[0] / np.tan(0.5 * theta[j]) >= min_blend_radius_mm:
-            d[j], bezier_blends[j] = found
+            found_at[j] = found
+    bezier_blends = {}
+    for j in sorted(found_at):
+        d[j], bezier_blends[j] = found_at[j]
     d_after = np.where(chain, 0.5 * length[1:], d)
     if chain.any():
         bezier_blends.update(zip(np.flatnonzero(chain).tolist(), chain_ctrl[chain]))

@@ -8,6 +8,15 @@ still stop before the window's end with its jerk limit are committed -> period e
 time line (SegmentLaw) -> ipo.feed.emission. A stop (G61, an unblended corner, the program's
 end) is an anchor at speed 0 and the period grid lands exactly on it, as in trapezoid mode. A
 feed override change takes effect at the next anchor: the rest is planned again from there.
+
+The rest of the committed window's plan, from the committed anchor to its stop at the window's
+end, is kept with the window (Window.tail): jerk_plan's passes and checks are a search, not a
+proof, and with more path read they can miss a braking from the committed speed that the last
+plan found (a straight into a tight curve near v^2 kappa = A whose look-ahead profile falls
+away right after the anchor: tests/ipo/feed/test_scurve_windows.py). A window whose plan finds
+none takes the next gap of that rest instead, once it passes every check of jerk_plan's step 4
+against today's caps, and plans again from the anchor that ends it; at worst the machine stops
+where the last window ended, the stop that plan had anyway.
 """
 from __future__ import annotations
 
@@ -18,7 +27,8 @@ import numpy as np
 
 from ipo.contracts import LIMIT_ACCEL
 from ipo.errors import SCURVE, IpoError
-from ipo.feed import jerk_plan, jerk_profile
+from ipo.feed import jerk_checks, jerk_plan, jerk_profile
+from ipo.feed.jerk_anchors import curved_intervals
 from ipo.feed import lookahead as la
 from ipo.feed.jerk_profile import transition_distance
 
@@ -48,13 +58,30 @@ class Segments(NamedTuple):
     jg: np.ndarray
 
 
-def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float, line: int) -> Segments:
-    """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan)."""
+def plan_window(s, t, kv, x_acc, a_axis, j_axis, v0: float, period_s: float) -> Segments | None:
+    """The jerk-limited segments of a window that ends at a stop (jerk_plan.plan), None where
+    the plan did not converge."""
     idx, w, vp, ag, jg, ok = jerk_plan.plan(jerk_plan.Geometry(s, t, kv), x_acc,
                                             jerk_plan.AxisLimits(a_axis, j_axis, period_s), v0, 0.0, STRAIGHT_MIN_MM)
-    if not ok:
-        raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
-    return Segments(idx, w, vp, ag, jg)
+    return Segments(idx, w, vp, ag, jg) if ok else None
+
+
+def tail_gap(tail: Segments | None, geo: jerk_plan.Geometry, cap: np.ndarray, lim: jerk_plan.AxisLimits,
+             line: int) -> Segments:
+    """The last plan's rest (Window.tail), to be committed up to its next anchor where this
+    window's plan found none: its first gap must pass jerk_plan's step-4 checks against the caps
+    as they are now (an override may have lowered them, a corner where the windows join too)."""
+    if tail is not None and len(tail.idx) > 1:
+        lo, hi = int(tail.idx[0]), int(tail.idx[1])
+        if hi == lo:  # a piece joint's two samples: no path between them to check (as in jerk_plan)
+            return tail
+        curved = curved_intervals(geo.s, geo.t, geo.kv, STRAIGHT_MIN_MM)
+        gap = jerk_checks.Segment(tail.w[0], tail.vp[0], tail.w[1], tail.ag[0], tail.jg[0])
+        worst, over = jerk_checks.check(geo, jerk_checks.rates(geo.s, geo.kv), cap, lo, hi, gap, lim,
+                                        bool(curved[lo]), True)
+        if worst < 0 and over == 0:
+            return tail
+    raise IpoError(SCURVE, "no jerk-limited profile within the axis limits was found here", line)
 
 
 def stop_reach_mm(v_top: float, a_axis: np.ndarray, j_axis: np.ndarray) -> float:
@@ -98,19 +125,24 @@ class SegmentLaw:
 
 def run(planner, win, output, final: bool) -> Iterator:
     """The planner's window in S-curve mode: plan, commit, emit (stop by stop, so that the
-    period grid lands on each); again while the override changed or everything must go out."""
+    period grid lands on each); again while the override changed, everything must go out, or the
+    window's plan found nothing and the last plan's next gap went out instead (tail_gap)."""
     while win.samples is not None and len(win.samples) > 1:
         planner._override_changed = False
         smp = win.samples
         cap, reason = planner._soft_caps()
         x = la.plan(smp.s, smp.t, smp.kv, cap, planner.a_max, planner._ascale(len(smp), cap), win.x0_v2, 0.0)
         x[x < _STANDSTILL_X] = 0.0
-        line = int(win.pieces.line[smp.piece[0] - win.piece_base])
         seg = plan_window(smp.s, smp.t, smp.kv, x, planner.a_max, planner.j_axis, float(np.sqrt(win.x0_v2)),
-                          planner.T, line)
-        m = len(seg.idx)
-        if final:
-            commit = m - 1
+                          planner.T)
+        fallback = seg is None
+        if fallback:
+            line = int(win.pieces.line[smp.piece[0] - win.piece_base])
+            seg = tail_gap(win.tail, jerk_plan.Geometry(smp.s, smp.t, smp.kv), cap,
+                           jerk_plan.AxisLimits(planner.a_max, planner.j_axis, planner.T), line)
+            commit = 1
+        elif final:
+            commit = len(seg.idx) - 1
         else:
             reach = stop_reach_mm(float(np.sqrt(cap.max())), planner.a_max, planner.j_axis)
             c = int(np.searchsorted(smp.s, win.s_end_mm - reach, side="right")) - 1
@@ -132,7 +164,9 @@ def run(planner, win, output, final: bool) -> Iterator:
             if planner._override_changed:
                 break
             done = e
-        if not (final or planner._override_changed):
+        win.tail = None if planner._override_changed else Segments(
+            seg.idx[commit:] - seg.idx[commit], seg.w[commit:], seg.vp[commit:], seg.ag[commit:], seg.jg[commit:])
+        if not (final or fallback or planner._override_changed):
             return
     if final and win.samples is not None and len(win.samples) <= 1:
         win.reset()

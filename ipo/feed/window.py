@@ -36,6 +36,7 @@ class Window:
         self.reason = np.zeros(0, np.int8)  # the LIMIT_* code of each cap
         self.corner = np.zeros(0, bool)  # a sample at an unblended corner
         self.x0_v2 = 0.0  # v^2 at the first held sample
+        self.tail = None  # S-curve mode: the last plan's rest from the first held sample (ipo.feed.scurve)
         self.s_end_mm = 0.0  # arc length at the end of everything built
         self.drivers: dict[int, NurbsDriver] = {}  # NURBS index -> driver
         self.events: list[tuple[float, object]] = []  # (arc length, event), in path order
@@ -106,6 +107,7 @@ class Window:
         self.pstart = np.zeros(0)
         self.cap, self.reason, self.corner = np.zeros(0), np.zeros(0, np.int8), np.zeros(0, bool)
         self.x0_v2 = 0.0
+        self.tail = None
 
     def add_event(self, s_mm: float, event) -> None:
         """An event that happens where the machine reaches arc length s_mm (after those held)."""
