@@ -20,6 +20,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 
 from ipo.feed.sampling import NurbsTable, nurbs_table
 from ipo.interp.steppers import make_stepper
@@ -88,27 +89,18 @@ class NurbsDriver:
 
     def _advance(self, target: np.ndarray, lead: float) -> np.ndarray:
         length = self.table.length
-        out = np.repeat(self.end[None, :], len(target), axis=0)
-        d = np.maximum(target - np.concatenate(([self.s_planned], target[:-1])), 0.0)
-        kappa = self.table.curvature_at(target - 0.5 * d)
-        chord = d * (1.0 - (kappa * d) ** 2 / 24.0)  # chord of an arc of length d
         # the lag left by the last chunk is taken up over this one (a bump from and to zero), and
         # the gain moves to the last chunk's realised/asked ratio: the step correction never jumps
-        n = len(target)
-        ramp, bump, bump_sum = _chunk_shape(n)
-        gain = self.gain_used + (self.gain - self.gain_used) * ramp / n
-        lag = self.s_planned - self.s_reached
-        steps = np.maximum(chord * gain + lag * bump / bump_sum, 0.0)
-        steps[0] += lead
-        # a period that reaches the curve's end ends on it, even if the stepper lags (the
-        # planner's arc lengths may fall short of the table's length by float rounding)
-        if target[-1] >= length - _END_SNAP_MM:
-            end = target >= length - _END_SNAP_MM
-            steps[end] = np.maximum(steps[end], 2.0 * length + 1.0)
+        ramp, bump, bump_sum = _chunk_shape(len(target))
+        steps, chord = _chunk_steps(target, self.s_planned, self.table.s, self.table.kappa, self.gain_used, self.gain,
+                                    self.s_planned - self.s_reached, ramp, bump, bump_sum, lead,
+                                    length - _END_SNAP_MM, 2.0 * length + 1.0)
         st = self.stepper.advance(steps)
         self.gain_used = self.gain
         k = len(st.u)
+        out = np.empty((len(target), 3))
         out[:k] = st.pos_mm
+        out[k:] = self.end
         if st.done:
             self.s_reached = length
         elif k == len(target):
@@ -120,6 +112,39 @@ class NurbsDriver:
             self.s_reached += moved
         self.s_planned = float(target[-1])
         return out
+
+
+@njit(cache=True)
+def _chunk_steps(target, s_planned, tab_s, tab_kappa, gain_used, gain, lag, ramp, bump, bump_sum, lead, snap_from,
+                 snap_step):
+    """A chunk's steps for the stepper and its chords (_advance): each period's arc step d as the
+    chord of an arc of length d at the table's curvature halfway along it, d (1 - (kappa d)^2 / 24),
+    times the gain moving from gain_used to gain over the chunk, plus the lag's share of the bump;
+    the first step also takes the lead, and a period that reaches snap_from (the curve's end) at
+    least snap_step, so that it ends on the curve's end even if the stepper lags (the planner's
+    arc lengths may fall short of the table's length by float rounding)."""
+    n = target.shape[0]
+    d = np.empty(n)
+    prev = s_planned
+    for i in range(n):
+        step = target[i] - prev
+        d[i] = step if (step >= 0.0 or step != step) else 0.0  # np.maximum's: NaN stays, -0.0 stays
+        prev = target[i]
+    kappa = np.interp(target - 0.5 * d, tab_s, tab_kappa)
+    chord = np.empty(n)
+    steps = np.empty(n)
+    for i in range(n):
+        kd = kappa[i] * d[i]
+        chord[i] = d[i] * (1.0 - kd * kd / 24.0)
+        g = gain_used + (gain - gain_used) * ramp[i] / n
+        step = chord[i] * g + lag * bump[i] / bump_sum
+        steps[i] = step if (step >= 0.0 or step != step) else 0.0
+    steps[0] += lead
+    if target[n - 1] >= snap_from:
+        for i in range(n):
+            if target[i] >= snap_from:
+                steps[i] = steps[i] if (steps[i] >= snap_step or steps[i] != steps[i]) else snap_step
+    return steps, chord
 
 
 @lru_cache(maxsize=None)

@@ -29,6 +29,8 @@ one period at the corner cap (ipo.feed.cap_kernels.geometric_caps).
 from __future__ import annotations
 
 from dataclasses import dataclass
+import itertools
+from operator import add, attrgetter
 from typing import NamedTuple
 
 import numpy as np
@@ -53,6 +55,7 @@ _REVERSAL_RAD = np.pi - 1e-6  # a reversal cannot be blended: the machine stops
 _CURVE_BLEND_MIN_RAD = 1e-4  # gentler corners next to arcs and NURBS are crossed as they are
 _MIN_PIECE_MM = 1e-6  # shorter straights left between blends are dropped (a 1 nm step)
 BEZIER3_KNOTS = np.array([0, 0, 0, 0, 1, 1, 1, 1.0])  # a corner blend: one cubic Bezier span
+_START, _END, _PATH = attrgetter("start"), attrgetter("end"), attrgetter("path")
 
 
 def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -170,20 +173,25 @@ def build(motions: list[Motion], *, final: bool, lead_trim_mm: float, blend_defa
     # 1. the moves as arrays: ends, feed, tolerance, length, tangents at both ends
     n = len(motions)
     ents = [m[0] for m in motions]
+    paths = list(map(_PATH, ents))  # a program has a few PathControls for its thousands of moves
+    path_ids = list(map(id, paths))
     tol_of: dict = {}
-    for path in {id(e.path): e.path for e in ents}.values():
+    exact_of: dict = {}
+    for path in dict(zip(path_ids, paths)).values():
         tol_of[id(path)] = (0.0 if path.exact_stop else blend_default_mm if path.blend_tol_mm is None
                             else float(path.blend_tol_mm))
-    kinds = [type(e) for e in ents]
-    pts = np.array([e.start + e.end for e in ents], dtype=float).reshape(n, 6)
+        exact_of[id(path)] = path.exact_stop
+    kinds = list(map(type, ents))
+    # both ends of every move, straight from the tuples into one array (no list of rows)
+    pts = np.fromiter(itertools.chain.from_iterable(map(add, map(_START, ents), map(_END, ents))), float, 6 * n).reshape(n, 6)
     start, end = pts[:, :3], pts[:, 3:]
     rapid = np.array([k is Rapid for k in kinds])
     line_like = rapid | np.array([k is Line for k in kinds])
     feed = np.array([rapid_mm_s if e.feed_mm_s is None else e.feed_mm_s for e in ents], dtype=float)
     lines = np.array([e.line for e in ents], dtype=np.int32)
     rpm = np.array([m[1] for m in motions], dtype=float)
-    tol = np.array([tol_of[id(e.path)] for e in ents])
-    exact = np.array([e.path.exact_stop for e in ents])
+    tol = np.fromiter(map(tol_of.__getitem__, path_ids), float, n)
+    exact = np.fromiter(map(exact_of.__getitem__, path_ids), bool, n)
     vec = end - start
     length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
     unit = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)

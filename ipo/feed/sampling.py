@@ -103,10 +103,12 @@ class NurbsTable:
             u = np.clip(u - (s_u - s) / speed, self.u[k], self.u[k + 1])
         return u
 
-    def curvature_at(self, s: np.ndarray) -> np.ndarray:
-        if self._kappa is None:  # the NURBS driver asks every chunk of periods
+    @property
+    def kappa(self) -> np.ndarray:
+        """|kv| at the samples (the NURBS driver reads it every chunk of periods)."""
+        if self._kappa is None:
             self._kappa = np.linalg.norm(self.kv, axis=1)
-        return np.interp(s, self.s, self._kappa)
+        return self._kappa
 
     @property
     def length(self) -> float:
@@ -206,8 +208,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
         split = np.where(split <= 64, split, 64).astype(int)  # inf, nan too: _check_resolved says why
         if np.all(split <= 1):
             break
-        extra = [np.linspace(u[i], u[i + 1], split[i] + 1)[1:-1] for i in np.nonzero(split > 1)[0]]
-        u = np.unique(np.concatenate([u] + extra))
+        u = np.unique(np.concatenate([u, _inner_points(u, split)]))
     if u_fine is None:
         u = _refine_arc(e, u)
     if end_gap_mm > 0:
@@ -218,6 +219,15 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
     ds = (speed[:-1] + 4 * mid_speed + speed[1:]) / 6 * np.diff(u)
     _check_resolved(e, u, points[0], ds)
     return NurbsTable(np.concatenate([[0.0], np.cumsum(ds)]), u, speed, t, kv, end_gap_mm)
+
+
+def _inner_points(u: np.ndarray, split: np.ndarray) -> np.ndarray:
+    """The inner points of np.linspace(u[i], u[i + 1], split[i] + 1) for every i with split[i] > 1,
+    in one pass: k (u[i + 1] - u[i]) / split[i] + u[i], k = 1 .. split[i] - 1, as linspace has them."""
+    i = np.flatnonzero(split > 1)
+    count = split[i] - 1
+    k = np.arange(1, count.sum() + 1) - np.repeat(np.cumsum(count) - count, count)
+    return k * np.repeat((u[i + 1] - u[i]) / split[i], count) + np.repeat(u[i], count)
 
 
 def blend_tables(blends: list) -> list[NurbsTable]:
