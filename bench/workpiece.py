@@ -5,7 +5,9 @@ Per program and grid, in one process and one machine state:
 - +stock s: the same run with the Workpiece as a drive sink, until its surface is ready (the run, then
   `surface()`, which waits for the removal thread): what the user waits for.
 - removal s, rem cpu: the removal's own wall and CPU time, wherever it ran: its hand-offs on the run's
-  thread and its cuts on the removal thread (zmap.py), which cuts while the run goes on.
+  thread and its cuts on the removal thread (zmap.py), which cuts while the run goes on (on one core: the
+  run has the other) and, once the run has ended, on every core (removal.cut: the threads take disjoint
+  blocks of tiles, so no two write one node; the header says how many).
 - Each program is run REPEATS times (bare, then with the stock) and every time above is the least of its
   repeats: on a shared machine a figure is only ever slowed by the other loads, so the least is the
   steadiest (the workpiece's counts and surface are the last repeat's, the same each time).
@@ -28,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import resource
 import sys
 import tempfile
@@ -107,8 +110,9 @@ def program_rows(quick: bool) -> None:
         cases.append(("g1_lhchips4.ngc", CORPUS / "g1_lhchips4.ngc", chips, CHIPS_STOCK, None))
     else:
         print(f"g1_lhchips4.ngc skipped: {CORPUS} not found")
-    print(f"threads: {available_cpus()}; ratio = removal s / run s, bar <= {RATIO_BAR:g}x; every time the least of "
-          f"{REPEATS} repeats (see the docstring)")
+    print(f"removal threads: 1 beside the run while it goes on, {available_cpus()} (every core, disjoint blocks of "
+          f"tiles) once it has ended; ratio = removal s / run s, bar <= {RATIO_BAR:g}x; every time the least of "
+          f"{REPEATS} repeats (see the docstring); load average {os.getloadavg()[0]:.1f}")
     print(f"{'program':16s} {'grid um':>7s} {'periods':>8s} {'run s':>6s} {'+stock s':>8s} {'removal s':>9s} "
           f"{'ratio':>6s} {'run cpu':>7s} {'rem cpu':>7s} {'cpu x':>6s} {'user x':>6s} {'cut/s':>9s} "
           f"{'env/per':>7s} {'zmap MB':>7s} {'RSS MB':>6s}  bar")

@@ -103,12 +103,14 @@ def ball_slanted(qx, qy, x0, y0, z0, x1, y1, z1, r):
     rising = sq - b > 0.0
     # b > 0: -(b + sq) / a; else c / (sq - b); b = sq = 0 (q on the cylinder's rim line): the double root -b / a
     zl = (-(b + sq) if b > 0.0 else c if rising else -b) / (a if b > 0.0 else sq - b if rising else a)
-    t = (k + zl * dz) / l2
-    ex, ey, ez = (x0, y0, z0) if t < 0.0 else (x1, y1, z1)
+    # the foot t = foot / l2 is off the segment where foot < 0 or foot > l2: the same tests as t < 0, t > 1 (the
+    # division rounds correctly, l2 > 0), so a caller that needs only the height divides once, not twice
+    foot = k + zl * dz
+    ex, ey, ez = (x0, y0, z0) if foot < 0.0 else (x1, y1, z1)
     rho2 = (qx - ex) ** 2 + (qy - ey) ** 2
     end = ez + r - math.sqrt(max(r * r - rho2, 0.0)) if rho2 <= r * r else np.inf
-    v = end if t < 0.0 or t > 1.0 else z0 + r + zl
-    return (v, min(max(t, 0.0), 1.0)) if disc >= 0.0 else (np.inf, 0.0)
+    v = end if foot < 0.0 or foot > l2 else z0 + r + zl
+    return (v, min(max(foot / l2, 0.0), 1.0)) if disc >= 0.0 else (np.inf, 0.0)
 
 
 @njit(cache=True)

@@ -103,10 +103,10 @@ def search(q, s_star, best, idx, a, b, run, pos, tool, stamp):
 
 @njit(cache=True, inline="always")
 def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
-    """Segment k (not vertical) of a ball of radius r at every node: a loop without branches (inlined into
-    sweep_ball, whose numpy error model it takes: python's would check each division for a zero, and the
-    loop would not vectorize; none is zero here, the segment not being vertical). Inlined, not called: a
-    call counts a reference to each of its five arrays with two atomic operations."""
+    """Segment k (not vertical) of a ball of radius r at every node: a loop without branches (inlined, with
+    sweep_ball, into tiles._sweep_runs, whose numpy error model it takes: python's would check each division
+    for a zero, and the loop would not vectorize; none is zero here, the segment not being vertical).
+    Inlined, not called: a call counts a reference to each of its five arrays with two atomic operations."""
     x0, y0, z0, x1, y1, z1 = pos[k, 0], pos[k, 1], pos[k, 2], pos[k + 1, 0], pos[k + 1, 1], pos[k + 1, 2]
     for m in range(best.shape[0]):
         v = max(ball_slanted(qx[m], qy[m], x0, y0, z0, x1, y1, z1, r)[0], floor_mm)
@@ -134,20 +134,21 @@ def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, be
         need[m] = may_win(g_star[m], was) & (not (swept & left & right))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, need, counts):
     """The run's segments a .. b-1 at the nodes (qx, qy) of a tile (best, idx updated), for a ball; g_star and
     s_star: its bound's minimum and where it is reached at each node (bounds.ball_bounds); tool: (core,
     corner, floor_mm); need: scratch (a flag per node). counts: searches, envelopes evaluated (tiles.COUNTS' 1
-    and 2). numpy's error model for _sweep_segment's divisions (inlined here)."""
+    and 2). Inlined into tiles._sweep_runs, not called (the references to its arrays, as in _sweep_segment),
+    which takes numpy's error model for _sweep_segment's divisions."""
     floor_mm = tool[2]
     s_lo, s_hi = np.inf, -np.inf
     m0, m1 = best.shape[0], 0
-    for m in range(best.shape[0]):
-        if may_win(g_star[m], best[m]):
-            s_lo, s_hi = min(s_lo, s_star[m]), max(s_hi, s_star[m])
-            m0, m1 = min(m0, m), m + 1
-    if s_lo > s_hi:
+    for m in range(best.shape[0]):  # without branches: which nodes the run may lower is data, not a pattern
+        win = may_win(g_star[m], best[m])
+        s_lo, s_hi = min(s_lo, s_star[m] if win else np.inf), max(s_hi, s_star[m] if win else -np.inf)
+        m0, m1 = min(m0, m if win else m0), max(m1, m + 1 if win else m1)
+    if m0 >= m1:
         return
     # only the nodes m0 .. m1-1 (the rows the run may lower, the tile's nodes being row after row), as
     # arrays of their own: loops from 0 over them run on the vector units, loops from m0 do not

@@ -182,7 +182,7 @@ def _near(listed, runs):
     return near
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
     """STEP 3 for the tile centred at (mx, my): every listed run's distance bound and key (G where the line
     passes closest to the centre) into ws.scratch; returns the lowest key of the runs whose bound is below
@@ -253,14 +253,23 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
     return top
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
     """The kept runs r0 .. r1-1 at each node of the tile: for a ball one run after the other at every node at
-    once (search.sweep_ball), else per node (_search_nodes); returns the tile's highest node."""
+    once (search.sweep_ball, inlined here: numpy's error model for its divisions), else per node
+    (_search_nodes); returns the tile's highest node."""
     if bt.core != 0.0:
         return _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts)
     tool = (bt.core, bt.corner, zm.floor_mm)
+    g_star, best = ws.g_star, ws.best
     for r in range(r0, r1):
+        # a run that the runs swept before it have left no node to lower (a third of the kept runs of
+        # finish_g01.nc) is passed over after one loop without branches, before sweep_ball's views and searches
+        may = False
+        for m in range(NODES):
+            may |= may_win(g_star[r, m], best[m])
+        if not may:
+            continue
         c = ws.kept[r]
         a = starts[c]
         sweep_ball(ws.g_star[r], ws.s_star[r], a, starts[c + 1], run_row(runs, c), bt.pos, tool,
@@ -299,11 +308,12 @@ def _keep(c, kept, i0, j0, zm, core, runs, ws, rows, counts):
     ws.kept[kept] = c
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     """STEP 3 and 4 for one tile of zm (ZMap) by the batch bt (Batch), whose runs (removal.plan) start at
     starts, with their table runs; listed: the runs of the tile's block in program order; ws: its block's
-    Workspace."""
+    Workspace. Inlined into removal.cut_blocks, as _candidates is here: a call counts a reference to each array
+    it is handed (the Workspace alone holds 14) with two atomic operations."""
     z, line, tile_max, lines = zm.z, zm.line, zm.tile_max, bt.lines
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
     best, idx, cand = ws.best, ws.idx, ws.cand
