@@ -14,7 +14,8 @@ machine stands).
   (`curvature_continuous` between lines, `g2_chains` through runs of short lines, `g2_joints` next
   to arcs and NURBS) and their compiled kernels (`compiled`); `arc_corners`: the cubic corners where
   an arc meets a line or an arc, all of a build's in one compiled pass (curve_corner's rule, to the bit).
-- `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths.
+- `nurbs_driver`: one NURBS walked by its stepper along the planned arc lengths; a corner
+  blend's curve and table (`BlendCurve`), which emission walks without a stepper.
 - `analytic`: the analytic pieces' points, tangents and curvature by arc length, compiled;
   `arcs`: G2/G3 arcs laid out as such pieces (and trimmed by their blends), compiled.
 - `sampling`: where along the path the limits are evaluated.

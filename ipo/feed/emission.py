@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from ipo.config import MachineConfig
-from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.feed.nurbs_driver import BlendCurve, NurbsDriver
 from ipo.contracts import LIMIT_ACCEL, LIMIT_DWELL, PeriodBatch
 from ipo.feed.lookahead import np_max, positions_at, sample_times
 from ipo.feed.analytic import points_along
@@ -218,14 +218,14 @@ class PeriodOutput:
 
 
 def _blend_points(loc: np.ndarray, sv: np.ndarray, pieces: Pieces, pstart: np.ndarray,
-                  nurbs: dict[int, NurbsDriver]) -> np.ndarray:
+                  nurbs: dict[int, BlendCurve]) -> np.ndarray:
     """Points of the blend pieces loc at arc lengths sv, every blend in one compiled call
     (loc does not decrease: each blend's periods are one run)."""
     first = np.flatnonzero(np.diff(loc, prepend=-1, append=-1))
     ctrl, tab_s, tab_u = [], [], []
     for k in pieces.nurbs[loc[first[:-1]]].tolist():
         drv = nurbs[k]
-        ctrl.append(drv.entity.points)
+        ctrl.append(drv.points)
         tab_s.append(drv.table.s)
         tab_u.append(drv.table.u)
     return bezier_points_runs(np.concatenate(ctrl, dtype=float), _firsts(ctrl), np.concatenate(tab_s),

@@ -15,9 +15,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.feed.nurbs_driver import BlendCurve, NurbsDriver, blend_curves
 from ipo.feed.pieces import Motion, Pieces, build, motion_length
-from ipo.feed.sampling import blend_tables, nurbs_table
+from ipo.feed.sampling import nurbs_table
 from ipo.feed.split import corner_parts
 from ipr.entities import Nurbs, Spindle
 
@@ -38,7 +38,7 @@ class NewPieces(NamedTuple):
     they walk (trimmed curves and corner blends included)."""
 
     pieces: Pieces
-    drivers: dict[int, NurbsDriver]
+    drivers: dict[int, NurbsDriver | BlendCurve]
 
 
 class Intake:
@@ -85,9 +85,6 @@ class Intake:
     def _driver(self, e: Nurbs) -> NurbsDriver:
         return NurbsDriver(e, nurbs_table(e, end_gap_mm=self.end_gap_mm), self.method)
 
-    def _blend_drivers(self, blends: list[Nurbs]) -> list[NurbsDriver]:
-        return [NurbsDriver(e, table, self.method) for e, table in zip(blends, blend_tables(blends))]
-
     def build(self, *, final: bool) -> NewPieces | None:
         """Pieces of all held motions but the last (its end corner needs the next move), or
         of all of them if `final`; None while fewer than two are held and not final."""
@@ -96,7 +93,7 @@ class Intake:
             return None
         built = build(motions, final=final, lead_trim_mm=self._trim, blend_default_mm=self.blend_default_mm,
                       rapid_mm_s=self.rapid_mm_s, drivers=self._drivers, next_index=self._next_index,
-                      make_drivers=self._blend_drivers, min_blend_radius_mm=self.corners.min_blend_radius_mm,
+                      make_drivers=blend_curves, min_blend_radius_mm=self.corners.min_blend_radius_mm,
                       g2_limits=self.corners.g2_limits)
         self._next_index += built.drivers.added
         pc = built.pieces

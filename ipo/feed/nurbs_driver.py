@@ -18,13 +18,16 @@ of that solve (ipo.interp.steppers); constant du cannot follow a feed and is ref
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from ipo.feed.sampling import NurbsTable, nurbs_table
+from ipo.feed.pieces import BLEND_SPANS
+from ipo.feed.sampling import NurbsTable, blend_tables, nurbs_table
 from ipo.interp.steppers import make_stepper
 from ipo.nurbs.subcurve import sub_curve
+from ipr.entities import Nurbs
 
 # The stepper's chords carry a small bias (about 1e-6 of a step, more at start-up);
 # re-reading its arc position this often keeps the lag far below what a drive could feel.
@@ -145,6 +148,31 @@ def _chunk_steps(target, s_planned, tab_s, tab_kappa, gain_used, gain, lag, ramp
             if target[i] >= snap_from:
                 steps[i] = steps[i] if (steps[i] >= snap_step or steps[i] != steps[i]) else snap_step
     return steps, chord
+
+
+class BlendCurve(NamedTuple):
+    """A corner blend (a cubic or the G2 quintic Bezier of ipo.feed.pieces) where the window keeps
+    the NURBS drivers: emission walks every blend by its table in one compiled call
+    (ipo.feed.blends.compiled.bezier_points_runs), not by a stepper, so a blend needs no driver
+    and no entity, and a build makes thousands of them (circle360: a NurbsDriver and a Nurbs each
+    cost more than the NamedTuple)."""
+
+    line: int
+    feed_mm_s: float
+    points: np.ndarray  # control points, (4, 3) or (6, 3)
+    table: NurbsTable
+
+    @property
+    def entity(self) -> Nurbs:
+        """The blend as the NURBS entity it is."""
+        return Nurbs(self.line, len(self.points) - 1, *BLEND_SPANS[len(self.points)], self.points, self.feed_mm_s)
+
+
+def blend_curves(blends: list[tuple[int, float, np.ndarray]]) -> list[BlendCurve]:
+    """The blends (line, feed, control points) as BlendCurves, their tables made in one compiled
+    call per degree (ipo.feed.sampling.blend_tables)."""
+    lines, feeds, ctrls = zip(*blends)
+    return list(map(BlendCurve, lines, feeds, ctrls, blend_tables(ctrls, lines)))
 
 
 @lru_cache(maxsize=None)

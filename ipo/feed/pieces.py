@@ -66,7 +66,7 @@ def _read_only(*arrays: np.ndarray) -> tuple[np.ndarray, ...]:
 
 # a corner blend's knots and weights by its number of control points (one Bezier span), shared by
 # every blend of that degree (entities' arrays are read-only)
-_BLEND_SPANS = {4: _read_only(BEZIER3_KNOTS.copy(), np.ones(4)), 6: _read_only(BEZIER5_KNOTS.copy(), np.ones(6))}
+BLEND_SPANS = {4: _read_only(BEZIER3_KNOTS.copy(), np.ones(4)), 6: _read_only(BEZIER5_KNOTS.copy(), np.ones(6))}
 
 
 @dataclass(slots=True)
@@ -328,8 +328,7 @@ def _put_blends(pc: Pieces, slots: np.ndarray, ctrls: list[np.ndarray], nurbs: D
     (whose line and feed, those of the move before each, are set)."""
     if not ctrls:
         return
-    idx = nurbs.add([Nurbs(line, len(ctrl) - 1, *_BLEND_SPANS[len(ctrl)], ctrl, feed)
-                     for line, feed, ctrl in zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)])
+    idx = nurbs.add(list(zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)))
     pc.kind[slots] = KIND_BLEND
     pc.nurbs[slots] = idx
     pc.length[slots] = [nurbs[i].table.length for i in idx]

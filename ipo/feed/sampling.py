@@ -194,7 +194,7 @@ def nurbs_table(e, end_gap_mm: float = 0.0, u_fine: np.ndarray | None = None) ->
     within about that distance, at the halved acceleration of the interval next to it.
     """
     if _is_blend(e):  # a corner blend: the same table, compiled
-        return blend_tables([e])[0]
+        return blend_tables([e.points], [e.line])[0]
     p = e.degree
     brk = np.unique(e.knots[p:len(e.knots) - p])
     u = np.unique(np.concatenate([np.linspace(a, b, _NURBS_START_PER_SPAN + 1)
@@ -230,14 +230,15 @@ def _inner_points(u: np.ndarray, split: np.ndarray) -> np.ndarray:
     return k * np.repeat((u[i + 1] - u[i]) / split[i], count) + np.repeat(u[i], count)
 
 
-def blend_tables(blends: list) -> list[NurbsTable]:
-    """nurbs_table of each corner blend (a cubic or quintic Bezier, as _is_blend says; not
-    checked here: ipo.feed.pieces makes them), those of one degree in one compiled call."""
-    out: list = [None] * len(blends)
+def blend_tables(ctrls, lines) -> list[NurbsTable]:
+    """nurbs_table of each corner blend (a cubic or quintic Bezier, as _is_blend says, with control
+    points ctrls[i], from program line lines[i]; not checked here: ipo.feed.pieces makes them),
+    those of one degree in one compiled call."""
+    out: list = [None] * len(ctrls)
     bad = []
-    for size in {len(e.points) for e in blends}:
-        rows = [i for i, e in enumerate(blends) if len(e.points) == size]
-        s, u, speed, t, kv, first, ok = bezier_tables(np.array([blends[i].points for i in rows], dtype=float),
+    for size in {len(c) for c in ctrls}:
+        rows = [i for i, c in enumerate(ctrls) if len(c) == size]
+        s, u, speed, t, kv, first, ok = bezier_tables(np.array([ctrls[i] for i in rows], dtype=float),
                                                       _NURBS_START_PER_SPAN, _NURBS_REFINE_ROUNDS, MAX_TURN_RAD,
                                                       MAX_SPACING_MM)
         bad += [rows[r] for r in np.flatnonzero(~ok)]
@@ -245,7 +246,7 @@ def blend_tables(blends: list) -> list[NurbsTable]:
         for i, a, z in zip(rows, first[:-1], first[1:]):
             out[i] = NurbsTable(s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z], bezier=True)
     if bad:
-        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", blends[min(bad)].line)
+        raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", lines[min(bad)])
     return out
 
 

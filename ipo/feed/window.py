@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.feed.nurbs_driver import BlendCurve, NurbsDriver
 from ipo.feed.pieces import Pieces
 from ipo.feed.sampling import Samples, sample
 
@@ -38,10 +38,10 @@ class Window:
         self.x0_v2 = 0.0  # v^2 at the first held sample
         self.tail = None  # S-curve mode: the last plan's rest from the first held sample (ipo.feed.scurve)
         self.s_end_mm = 0.0  # arc length at the end of everything built
-        self.drivers: dict[int, NurbsDriver] = {}  # NURBS index -> driver
+        self.drivers: dict[int, NurbsDriver | BlendCurve] = {}  # NURBS index -> driver (a blend: its curve)
         self.events: list[tuple[float, object]] = []  # (arc length, event), in path order
 
-    def extend(self, pc: Pieces, drivers: dict[int, NurbsDriver]) -> None:
+    def extend(self, pc: Pieces, drivers: dict[int, NurbsDriver | BlendCurve]) -> None:
         """New pieces after those held, with the drivers of the NURBS indices they walk,
         sampled and capped."""
         self.drivers.update(drivers)

@@ -114,6 +114,17 @@ def _path_of(moves: list, sag_mm: float) -> Chain:
                  np.concatenate(inside))
 
 
+def sub_chain(chain: Chain, first: int, last: int) -> Chain:
+    """Moves first..last-1 of a chain as a chain of their own (its points and tangents)."""
+    a = 0 if first == 0 else int(chain.ends[first - 1])
+    b = int(chain.ends[last - 1]) + 1
+    moves = chain.moves[first:last]
+    tan_in, tan_out = chain.tan_in[a:b].copy(), chain.tan_out[a:b].copy()
+    tan_in[0], tan_out[-1] = tan_out[0], tan_in[-1]  # at its ends, the direction there (as _path_of)
+    sag = chain.sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
+    return Chain(moves, chain.points[a:b], chain.ends[first:last] - a, sag, tan_in, tan_out, chain.on_arc[a:b])
+
+
 def same_feed(a: float, b: float, reach_mm_s: float | None) -> bool:
     """Do two programmed feeds move the machine alike? Equal, or both at or above the fastest path
     speed its axes can reach together (neither ever limits the motion)."""

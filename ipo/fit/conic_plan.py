@@ -17,9 +17,14 @@ of degree 2 for each stretch inside a group):
   knots (+1 where the program needs G1/G2/G3 restored after the chain);
 - a move kept as written, between two move ends outside a group: +1.
 
-Spans into a junction are searched from the farthest start the previous junctions
-reached (less a margin) forwards, so each junction costs a few span tests, not one per
-earlier junction; the plan is therefore near-shortest, not provably shortest.
+The farthest start of a span into a junction is searched from the one the previous
+junctions reached (doubling steps, then halving), so each junction costs a few span tests,
+not one per earlier junction; every start between that one and the junction is then tried
+as well where the way to it is cheap enough to help (spans that fit from far usually fit
+from nearer, and the cheapest way in need not come from the farthest start: on g1_lhchips4
+at 10 um, 4645 -> 4257 written blocks, for about the same plan time). The plan is
+near-shortest, not provably shortest (trying all starts up to 80 positions back plans 26 blocks
+fewer there, for 3-4 times the plan time).
 """
 from __future__ import annotations
 
@@ -291,6 +296,10 @@ def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost):
                     good = mid
                 else:
                     bad = mid
+            for g in range(good + 1, gk):  # the nearer starts, where they could make z cheaper
+                for j in range(group[g], group[g + 1]):
+                    if ins[j] + 1 < ins[z]:
+                        _relax(j, z, q, nodes, found)
             far = good if far < 0 else min(far, good)
         if far >= 0:
             reach = far

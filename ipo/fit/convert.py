@@ -7,7 +7,8 @@ multiplicity = degree. The program is interpreted once, line by line, so each en
 source line and the modes and offsets in force there; lines outside a fitted piece are copied
 unchanged. The curve as written (rounded) is checked against the tolerance again, and by the
 controller's own test where the caller hands it in (`walkable`: machine/ does, so that vcnc fit
-never writes a group vcnc run refuses); a piece that fails either stays G01.
+never writes a group vcnc run refuses); the moves of a group it refuses are planned again in halves
+(up to SPLITS times), and a piece that still fails either check stays G01.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ipo.errors import FIT_SETTINGS, IpoError
-from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains
+from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains, sub_chain
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain, sharp_of
 from ipo.fit.quadratic import plan_chain_conic
@@ -41,6 +42,7 @@ AXIS_LETTERS = frozenset("XYZ")
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
 REFUSED = "the controller cannot follow the group"  # why a group that fits is kept G1 (walkable said no)
+SPLITS = 3  # a group the controller refuses is planned again in halves, this many times at most
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -190,7 +192,11 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
     plans = _map(planner, chains, options, jobs=jobs)
     writer = g52_text if dialect == "g5.2" else group_text
-    written = _written_all(chains, plans, [frames[c.moves[0].line] for c in chains], tol_mm, writer, walkable, jobs)
+    chain_frames = [frames[c.moves[0].line] for c in chains]
+    written = _written_all(chains, plans, chain_frames, tol_mm, writer, walkable, jobs)
+    for _ in range(SPLITS):
+        if not _split_refused(chains, options, chain_frames, plans, written, planner, (tol_mm, writer, walkable, jobs)):
+            break
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
         new, last_is_group = _convert_chain(chain, spans, groups, lines, frame, report)
@@ -298,6 +304,33 @@ def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Fram
     for i, j, text, _, dev in cands:
         out[i][j] = _Written(text, dev, dev > tol_mm, verdicts.get((i, j)))
     return out
+
+
+def _split_refused(chains: list[Chain], options: list[FitOptions], frames: list[Frame], plans: list[list[Span]],
+                   written: list[list[_Written | None]], planner, how: tuple) -> bool:
+    """Each group the controller refuses planned again as two chains of half its moves, written and checked,
+    in its place in plans and written; whether there was one. A group's weights and knot intervals spread
+    with its length (ipo.fit.weights) and the controller's arc-length table refuses the extremes: on
+    g1_lhchips4 at 5 um two refused groups kept 700 moves as G1."""
+    todo = [(i, j) for i, groups in enumerate(written) for j, w in enumerate(groups)
+            if w is not None and w.refused is not None and plans[i][j].last - plans[i][j].first >= 4]
+    halves = []  # (chain, options, frame, first move in the whole chain)
+    for i, j in todo:
+        span = plans[i][j]
+        mid = (span.first + span.last) // 2
+        for a, b in ((span.first, mid), (mid, span.last)):
+            restore = options[i].restore_blocks if b == len(chains[i].moves) else 0
+            halves.append((sub_chain(chains[i], a, b), replace(options[i], restore_blocks=restore), frames[i], a))
+    tol_mm, writer, walkable, jobs = how
+    new_plans = _map(planner, [h[0] for h in halves], [h[1] for h in halves], jobs=jobs)
+    new_written = _written_all([h[0] for h in halves], new_plans, [h[2] for h in halves], tol_mm, writer, walkable,
+                               jobs)
+    for k, (i, j) in reversed(list(enumerate(todo))):  # the last first: the indices before it stay
+        pair = (2 * k, 2 * k + 1)
+        plans[i][j:j + 1] = [replace(s, first=s.first + halves[h][3], last=s.last + halves[h][3])
+                             for h in pair for s in new_plans[h]]
+        written[i][j:j + 1] = [w for h in pair for w in new_written[h]]
+    return bool(todo)
 
 
 def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None], lines: list[str], frame: Frame,

@@ -12,6 +12,7 @@ from scipy.interpolate import BSpline
 
 import ipo.feed.pieces as pieces
 from ipo.feed.intake import CornerRules
+from ipo.feed.nurbs_driver import blend_curves
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.blends.curvature_continuous import arc_blend_x, g2_corner_x
 from ipo.contracts import PeriodBatch
@@ -30,11 +31,6 @@ G2_ANY = (492.5, 49250.0, 0.0, 49.25 / 0.75)
 NO_ARC = 1e9
 
 
-class _Driver:
-    def __init__(self, e):
-        self.entity, self.table = e, nurbs_table(e)
-
-
 def corner(theta_deg: float, tol_mm: float, leg_mm: float = 10.0, feed: float = 100.0):
     th = np.radians(theta_deg)
     v = np.array([leg_mm, 0.0, 0.0])
@@ -45,7 +41,7 @@ def corner(theta_deg: float, tol_mm: float, leg_mm: float = 10.0, feed: float = 
 
 def build_corner(ents, **kw):
     built = build([Motion(e, 0.0, -1) for e in ents], final=True, lead_trim_mm=0.0, blend_default_mm=0.0,
-                  rapid_mm_s=100.0, drivers={}, next_index=0, make_drivers=lambda es: [_Driver(e) for e in es], **kw)
+                  rapid_mm_s=100.0, drivers={}, next_index=0, make_drivers=blend_curves, **kw)
     return built.pieces, built.drivers.changed  # the blends it made, by index
 
 

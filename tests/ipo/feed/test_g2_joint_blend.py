@@ -12,7 +12,7 @@ from scipy.interpolate import BSpline
 import ipo.feed.pieces as pieces
 from ipo.feed.blends.g2_joints import hermite_quintic
 from ipo.feed.pieces import KIND_BLEND, Motion, build
-from ipo.feed.nurbs_driver import NurbsDriver
+from ipo.feed.nurbs_driver import NurbsDriver, blend_curves
 from ipo.feed.planner import FeedPlanner
 from ipo.feed.sampling import nurbs_table
 from ipr.entities import Arc, Line, Nurbs, PathControl
@@ -33,7 +33,7 @@ def built(ents):
     drivers = {i: _driver(e) for i, e in enumerate(ents) if isinstance(e, Nurbs)}
     motions = [Motion(e, 0.0, i if isinstance(e, Nurbs) else -1) for i, e in enumerate(ents)]
     b = build(motions, final=True, lead_trim_mm=0.0, blend_default_mm=0.0, rapid_mm_s=100.0, drivers=drivers,
-              next_index=len(ents), make_drivers=lambda es: [_driver(e) for e in es], min_blend_radius_mm=CORNERS.min_blend_radius_mm,
+              next_index=len(ents), make_drivers=blend_curves, min_blend_radius_mm=CORNERS.min_blend_radius_mm,
               g2_limits=CORNERS.g2_limits)
     quintics = [b.drivers[int(k)].entity for k in b.pieces.nurbs[b.pieces.kind == KIND_BLEND]]
     return b.pieces, [e for e in quintics if e.degree == 5]

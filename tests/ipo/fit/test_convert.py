@@ -167,14 +167,14 @@ def _refuse_below_z3(curve: Nurbs) -> str | None:
 
 
 def test_controller_check_in_worker_processes_keeps_the_groups_it_refuses():
-    # the check refuses the three lowest runs: they stay G1, whether the checks run in two worker
-    # processes or in this one
+    # the check refuses the three lowest runs: planned again in halves (ipo.fit.convert.SPLITS times) and
+    # refused again, they stay G1, whether the checks run in two worker processes or in this one
     src = _six_runs()
     one, rep1 = convert_text(src, 0.01, jobs=1, walkable=_refuse_below_z3)
     two, rep2 = convert_text(src, 0.01, jobs=2, walkable=_refuse_below_z3)
     assert one == two and rep1.kept_g01 == rep2.kept_g01
     refused = [line for line, why in rep2.kept_g01 if why.endswith("below Z-3.5")]
-    assert len(refused) == 3 and rep2.groups == 3
+    assert len(refused) >= 3 and rep2.groups == 3
     after = parse_text(two).entities
     z_nurbs = [e.points[:, 2] for e in after if isinstance(e, Nurbs)]
     assert len(z_nurbs) == 3 and min(z.max() for z in z_nurbs) > -3.5
@@ -306,12 +306,13 @@ def test_vcnc_compare_roughness_needs_a_cut_that_moves_a_blu(tmp_path):
 
 @pytest.mark.slow
 def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
-    """LinuxCNC's lhchips4, lines 4511-4808 (three raster passes), with every turn left to the fit
-    (--corner-deg 179: no vertex is forced sharp). Planned alone, one group hugs its corners with
-    weights from 1.7e-5 to 0.56 and moves so unevenly in its parameter that the controller's
-    arc-length table cannot hold it (E-NURBS-PATH, measured). vcnc fit tables every group as the
-    controller's check does and keeps that one as the moves it replaces: machine.check accepts the
-    program it writes."""
+    """LinuxCNC's lhchips4, lines 157-800 (raster passes; lines 158-643 at F999800 and F9991300, both
+    beyond the machine's reach, are one chain), fitted at 20 um. Planned alone, that chain's 162-point
+    group (line 6 of the plain fit) has weights from 1.2e-6 to 1 and moves so unevenly in its
+    parameter that the controller's arc-length table cannot hold it (E-NURBS-PATH, measured: 0.1375 mm
+    between u = 17054.906862 and 17054.906865). vcnc fit tables every group as the controller's check
+    does and plans the moves of that one again in halves, checked again (a half still refused would
+    stay G1): machine.check accepts the program it writes, and no move stays G1 for a refusal."""
     from conftest import require_corpus
     from ipo.config import default_config
     from ipo.feed.planner import nurbs_end_gap_mm
@@ -322,20 +323,21 @@ def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
     path = require_corpus() / "g1_lhchips4.ngc"
     if not path.exists():
         pytest.skip(f"{path} is absent")
-    lines = path.read_text().split("\n")[4510:4808]
-    # where line 4510 leaves the machine, and the modes in force there (lines 19 and 28 of the file)
-    text = "\n".join(["G21 G64 P0.1 Q0.01", "G18", "G0 X58.604 Y71.707 Z-22.308 F9991300.0", *lines, "M2", ""])
+    lines = path.read_text().split("\n")[156:800]
+    # where line 156 leaves the machine, and the modes in force there (lines 19 and 28 of the file)
+    text = "\n".join(["G21 G64 P0.1 Q0.01", "G18", "G0 X-0.638 Y0.269 Z5.0 F9991300.0", *lines, "M2", ""])
     config = default_config()
     gap = nurbs_end_gap_mm(config)
-    plain, _ = convert_text(text, 0.01, corner_deg=179.0, jobs=1)
+    plain, _ = convert_text(text, 0.02, jobs=1)
     refused = [e.line for e in parse_text(plain).entities if isinstance(e, Nurbs) and planning_problem(e, gap)]
     assert refused  # the case the check is for
     src, dst = tmp_path / "in.ngc", tmp_path / "out.ngc"
     src.write_text(text)
-    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01", "--corner-deg", "179",
-                                    "--jobs", "1"])
+    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.02", "--jobs", "1"])
     assert res.exit_code == 0, res.output
-    assert "the controller cannot follow the group" in res.output
+    assert "the controller cannot follow the group" not in res.output
     out = dst.read_text()
     check_program(dst, config, np.array([a.min_mm for a in config.axes]), np.array([a.max_mm for a in config.axes]))
-    assert sum(isinstance(e, Nurbs) for e in parse_text(out).entities) >= 2
+    written = [e for e in parse_text(out).entities if isinstance(e, Nurbs)]
+    assert not any(planning_problem(e, gap) for e in written)
+    assert len(written) > sum(isinstance(e, Nurbs) for e in parse_text(plain).entities)

@@ -287,3 +287,20 @@ def test_fitted_corpus_program_passes_the_controllers_check(tmp_path):
             knots = np.asarray(even_speed(e).knots)
             steps = np.diff(knots)
             assert steps[steps > 0].min() >= 1e-11 * (knots[-1] - knots[0]), e.line
+
+
+@pytest.mark.parametrize("first, last", [(0, 3), (2, 5), (3, 7), (1, 7)])
+def test_sub_chain_is_the_chain_of_its_moves(first, last):
+    # a refused group's moves are planned again as chains of their own (ipo.fit.convert): the slice of a
+    # chain is what split_chains finds for those moves alone, arcs' points and tangents included
+    from ipo.fit.chains import split_chains, sub_chain
+
+    src = "\n".join(["G21 G90 G17", "G0 X0 Y0 Z0", "G1 X2 Y0.1 F600", "X4 Y0.5", "G3 X6 Y2.5 I0 J2",
+                     "G1 X6.5 Y4", "G2 X8.5 Y6 I2 J0", "G1 X10 Y6.2", "X12 Y6", "M2", ""])
+    moves = [e for e in parse_text(src).entities if isinstance(e, (Line, Arc)) and e.line > 2]
+    (chain,) = split_chains(moves, 0.01)
+    (alone,) = split_chains(moves[first:last], 0.01)
+    part = sub_chain(chain, first, last)
+    assert part.moves == alone.moves and part.sag_mm == alone.sag_mm
+    for name in ("points", "ends", "tan_in", "tan_out", "on_arc"):
+        np.testing.assert_array_equal(getattr(part, name), getattr(alone, name), err_msg=name)
