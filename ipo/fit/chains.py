@@ -86,32 +86,34 @@ def _arc_points(arc: Arc, sag_mm: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _path_of(moves: list, sag_mm: float) -> Chain:
-    pts = [np.array([moves[0].start], dtype=float)]
-    t_in, t_out, inside = [np.zeros((1, 3))], [np.zeros((1, 3))], [np.zeros(1, dtype=bool)]
-    ends = []
-    count = 1
-    for m in moves:
+    """The chain of moves: its points, each move's blocks of points and tangents after its start (the
+    lines' directions at once: a chain can hold tens of thousands of them)."""
+    line_at = [i for i, m in enumerate(moves) if not isinstance(m, Arc)]
+    line_ends = np.array([moves[i].end for i in line_at], dtype=float).reshape(-1, 3)
+    line_dir = _unit(line_ends - np.array([moves[i].start for i in line_at], dtype=float).reshape(-1, 3))
+    leave = np.empty((len(moves), 3))  # the direction each move leaves its start in
+    leave[line_at] = line_dir
+    pts, tans, inside = [np.array([moves[0].start], dtype=float)], [np.zeros((1, 3))], [np.zeros(1, dtype=bool)]
+    k = 0
+    for i, m in enumerate(moves):
         if isinstance(m, Arc):
             p, tan = _arc_points(m, sag_mm)
-            t_out[-1][-1] = tan[0]
-            t_in.append(tan[1:])
-            t_out.append(tan[1:].copy())
+            leave[i] = tan[0]
+            pts.append(p)
+            tans.append(tan[1:])
             inside.append(np.arange(len(p)) < len(p) - 1)
         else:
-            p = np.array([m.end], dtype=float)
-            d = _unit(p[0] - np.asarray(m.start, dtype=float))
-            t_out[-1][-1] = d
-            t_in.append(d[None, :])
-            t_out.append(d[None, :].copy())
+            pts.append(line_ends[k:k + 1])
+            tans.append(line_dir[k:k + 1])
             inside.append(np.zeros(1, dtype=bool))
-        pts.append(p)
-        count += len(p)
-        ends.append(count - 1)
-    has_arc = any(isinstance(m, Arc) for m in moves)
-    tan_in, tan_out = np.vstack(t_in), np.vstack(t_out)
+            k += 1
+    ends = np.cumsum([len(p) for p in pts[1:]])
+    tan_in = np.vstack(tans)
+    tan_out = tan_in.copy()  # at the last point, the direction it arrives in
+    tan_out[np.r_[0, ends[:-1]]] = leave
     tan_in[0] = tan_out[0]
-    return Chain(tuple(moves), np.vstack(pts), np.array(ends), sag_mm if has_arc else 0.0, tan_in, tan_out,
-                 np.concatenate(inside))
+    sag = sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
+    return Chain(tuple(moves), np.vstack(pts), ends, sag, tan_in, tan_out, np.concatenate(inside))
 
 
 def sub_chain(chain: Chain, first: int, last: int) -> Chain:
