@@ -256,13 +256,13 @@ def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_
     return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
 
 
-def _map(fn, *items: list, jobs: int | None, least: int | None = None) -> list:
+def _map(fn, *items: list, jobs: int | None) -> list:
     """fn over the items in order, in worker processes where there is more than one core to use and
-    enough items to share, at least `least` (default 2 x jobs; each call is independent of the others)."""
+    enough items to share (each call is independent of the others)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise IpoError(FIT_SETTINGS, f"jobs must be >= 1, got {jobs}")
-    if jobs == 1 or len(items[0]) < (2 * jobs if least is None else least):
+    if jobs == 1 or len(items[0]) < 2 * jobs:
         return [fn(*args) for args in zip(*items)]
     # a few chunks per worker: sizes vary (one chain can hold most of a program), and tiny tasks one by
     # one would cost more in hand-overs than they do to run
@@ -281,15 +281,15 @@ class _Written:
     refused: str | None  # why the controller cannot follow it (walkable), or None
 
 
-def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame], how: tuple,
-                 least: int | None = None) -> list[list[_Written | None]]:
-    """Every fitted span written out (None where it is kept), in the worker pool (_written; least: as
-    _map's). how: (tol_mm, writer, walkable, jobs)."""
+def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame],
+                 how: tuple) -> list[list[_Written | None]]:
+    """Every fitted span written out (None where it is kept), in the worker pool (_written).
+    how: (tol_mm, writer, walkable, jobs)."""
     tol_mm, writer, walkable, jobs = how
     at = [(i, j) for i, spans in enumerate(plans) for j, span in enumerate(spans) if span.fit is not None]
     moves = [chains[i].moves[plans[i][j].first:plans[i][j].last] for i, j in at]
     done = _map(_written, [plans[i][j] for i, j in at], moves, [frames[i] for i, _ in at],
-                [chains[i].sag_mm for i, _ in at], [(tol_mm, writer, walkable)] * len(at), jobs=jobs, least=least)
+                [chains[i].sag_mm for i, _ in at], [(tol_mm, writer, walkable)] * len(at), jobs=jobs)
     out: list[list[_Written | None]] = [[None] * len(spans) for spans in plans]
     for (i, j), w in zip(at, done):
         out[i][j] = w
@@ -326,9 +326,8 @@ def _split_refused(chains: list[Chain], options: list[FitOptions], frames: list[
         for a, b in ((span.first, mid), (mid, span.last)):
             restore = options[i].restore_blocks if b == len(chains[i].moves) else 0
             halves.append((sub_chain(chains[i], a, b), replace(options[i], restore_blocks=restore), frames[i], a))
-    # the halves are few but long (a refused group is long): shared by the workers all the same
-    new_plans = _map(planner, [h[0] for h in halves], [h[1] for h in halves], jobs=how[3], least=2)
-    new_written = _written_all([h[0] for h in halves], new_plans, [h[2] for h in halves], how, least=2)
+    new_plans = _map(planner, [h[0] for h in halves], [h[1] for h in halves], jobs=how[3])
+    new_written = _written_all([h[0] for h in halves], new_plans, [h[2] for h in halves], how)
     for k, (i, j) in reversed(list(enumerate(todo))):  # the last first: the indices before it stay
         pair = (2 * k, 2 * k + 1)
         plans[i][j:j + 1] = [replace(s, first=s.first + halves[h][3], last=s.last + halves[h][3])
