@@ -1,6 +1,6 @@
 """The NURBS kernel (000 eq. 1–4): the one geometry of a rational B-spline curve.
 
-- `kernel`: vectorised reference evaluation over many parameters (basis functions, spans,
+- `kernel`: vectorised evaluation over many parameters (A2.3 compiled) (basis functions, spans,
   points, derivatives); the reference the compiled form and the tests are held to.
 - `compiled`: scalar numba evaluation for the per-period loops (one u at a time), in the
   de Boor form and as per-span polynomials.

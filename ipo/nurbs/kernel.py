@@ -3,13 +3,16 @@
 Curves are given as plain arrays (degree p, knots U, weights h, control points B)
 so that the interpolators, the feed stage and the fitting code share this module
 without knowing about G-code. Algorithms follow The NURBS Book (A2.1–A2.3, A4.2);
-000 eq. 1–4 define the curve.
+000 eq. 1–4 define the curve. A2.3 (basis_derivs, under every derivative) runs compiled, u by u in
+the array form's order of operations: the feed stage's tables evaluate a curve at a few hundred u
+a round, where the array form spent its time in a hundred small numpy calls.
 """
 from __future__ import annotations
 
 from math import comb
 
 import numpy as np
+from numba import njit
 
 
 def find_span(knots: np.ndarray, degree: int, u: np.ndarray) -> np.ndarray:
@@ -44,50 +47,64 @@ def basis(knots: np.ndarray, degree: int, u: np.ndarray, span: np.ndarray | None
 def basis_derivs(knots: np.ndarray, degree: int, u: np.ndarray, n_derivs: int,
                  span: np.ndarray | None = None) -> np.ndarray:
     """Basis functions and their derivatives, shape (n_derivs+1, len(u), p+1) (NURBS Book A2.3)."""
-    p = degree
     u = np.atleast_1d(np.asarray(u, dtype=float))
     if span is None:
-        span = find_span(knots, p, u)
-    m = len(u)
-    ndu = np.zeros((p + 1, p + 1, m))
-    ndu[0, 0] = 1.0
-    left = np.zeros((p + 1, m))
-    right = np.zeros((p + 1, m))
-    for j in range(1, p + 1):
-        left[j] = u - knots[span + 1 - j]
-        right[j] = knots[span + j] - u
-        saved = np.zeros(m)
-        for r in range(j):
-            ndu[j, r] = right[r + 1] + left[j - r]
-            temp = ndu[r, j - 1] / ndu[j, r]
-            ndu[r, j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j, j] = saved
+        span = find_span(knots, degree, u)
+    return _basis_derivs(np.asarray(knots, dtype=float), int(degree), u, int(n_derivs), span)
+
+
+@njit(cache=True, error_model="numpy")
+def _basis_derivs(knots, p, u, n_derivs, span):
+    """A2.3 at every u (its knot span given), the NURBS Book's array form evaluated u by u: the
+    same arithmetic in the same order as that form over arrays of u (its 0 + x sums kept,
+    which turn -0 into 0), so the same bits (tests/ipo/nurbs/test_basis_derivs.py)."""
+    m = u.shape[0]
     ders = np.zeros((n_derivs + 1, m, p + 1))
-    ders[0] = ndu[:, p].T
-    a = np.zeros((2, p + 1, m))
-    for r in range(p + 1):
-        s1, s2 = 0, 1
-        a[0, 0] = 1.0
-        for k in range(1, n_derivs + 1):
-            d = np.zeros(m)
-            rk, pk = r - k, p - k
-            if r >= k:
-                a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
-                d = a[s2, 0] * ndu[rk, pk]
-            j1 = 1 if rk >= -1 else -rk
-            j2 = k - 1 if r - 1 <= pk else p - r
-            for j in range(j1, j2 + 1):
-                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
-                d = d + a[s2, j] * ndu[rk + j, pk]
-            if r <= pk:
-                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
-                d = d + a[s2, k] * ndu[r, pk]
-            ders[k, :, r] = d
-            s1, s2 = s2, s1
+    ndu = np.empty((p + 1, p + 1))
+    left = np.zeros(p + 1)
+    right = np.zeros(p + 1)
+    a = np.empty((2, p + 1))
+    for e in range(m):
+        x, sp = u[e], span[e]
+        ndu[:] = 0.0
+        ndu[0, 0] = 1.0
+        for j in range(1, p + 1):
+            left[j] = x - knots[sp + 1 - j]
+            right[j] = knots[sp + j] - x
+            saved = 0.0
+            for r in range(j):
+                ndu[j, r] = right[r + 1] + left[j - r]
+                temp = ndu[r, j - 1] / ndu[j, r]
+                ndu[r, j] = saved + right[r + 1] * temp
+                saved = left[j - r] * temp
+            ndu[j, j] = saved
+        for r in range(p + 1):
+            ders[0, e, r] = ndu[r, p]
+        a[:] = 0.0
+        for r in range(p + 1):
+            s1, s2 = 0, 1
+            a[0, 0] = 1.0
+            for k in range(1, n_derivs + 1):
+                d = 0.0
+                rk, pk = r - k, p - k
+                if r >= k:
+                    a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
+                    d = a[s2, 0] * ndu[rk, pk]
+                j1 = 1 if rk >= -1 else -rk
+                j2 = k - 1 if r - 1 <= pk else p - r
+                for j in range(j1, j2 + 1):
+                    a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
+                    d = d + a[s2, j] * ndu[rk + j, pk]
+                if r <= pk:
+                    a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
+                    d = d + a[s2, k] * ndu[r, pk]
+                ders[k, e, r] = d
+                s1, s2 = s2, s1
     factor = float(p)
     for k in range(1, n_derivs + 1):
-        ders[k] *= factor
+        for e in range(m):
+            for r in range(p + 1):
+                ders[k, e, r] *= factor
         factor *= p - k
     return ders
 

@@ -15,85 +15,108 @@ _BOX_SLACK = 1e-12  # relative to the coordinates: far above the rounding of a d
 
 
 @njit(cache=True)
-def _derivs(p, u, out_c, out_d1, out_d2):
-    """C(u), C'(u), C''(u) of the cubic Bezier with control points p (4, 3), or of the
-    Bezier of any other degree (the quintic G2 blends, ipo.feed.blends.curvature_continuous)."""
-    if p.shape[0] != 4:
-        _derivs_any(p, u, out_c, out_d1, out_d2)
-        return
-    for a in range(3):
-        p0, p1, p2, p3 = p[0, a], p[1, a], p[2, a], p[3, a]
-        a1 = 3 * (p1 - p0)
-        a2 = 3 * (p2 - 2 * p1 + p0)
-        a3 = p3 - 3 * p2 + 3 * p1 - p0
-        for i in range(u.shape[0]):
-            uu = u[i]
-            out_c[i, a] = p0 + uu * (a1 + uu * (a2 + uu * a3))
-            out_d1[i, a] = a1 + uu * (2 * a2 + 3 * uu * a3)
-            out_d2[i, a] = 2 * a2 + 6 * uu * a3
-
-
-@njit(cache=True)
-def _derivs_any(p, u, out_c, out_d1, out_d2):
-    """_derivs for a Bezier of degree n = len(p) - 1 from its power-basis coefficients,
-    a_k = C(n, k) sum_i (-1)^(k - i) C(k, i) P_i, by Horner's rule."""
+def power_coefs(p):
+    """The power-basis coefficients of the Bezier with control points p (n + 1, 3), as _derivs_at
+    takes them, (3, n + 1, 3): a cubic's p0, a1 = 3 (p1 - p0), a2 = 3 (p2 - 2 p1 + p0),
+    a3 = p3 - 3 p2 + 3 p1 - p0 in [0]; any other degree's a_k = C(n, k) sum_i (-1)^(k - i) C(k, i) P_i
+    (the quintic G2 blends, ipo.feed.blends.curvature_continuous) in [0], k a_k in [1] and
+    k (k - 1) a_k in [2], the terms of its derivatives."""
     n = p.shape[0] - 1
-    coef = np.zeros((n + 1, 3))
+    coef = np.zeros((3, n + 1, 3))
+    if n == 3:
+        for a in range(3):
+            p0, p1, p2, p3 = p[0, a], p[1, a], p[2, a], p[3, a]
+            coef[0, 0, a] = p0
+            coef[0, 1, a] = 3 * (p1 - p0)
+            coef[0, 2, a] = 3 * (p2 - 2 * p1 + p0)
+            coef[0, 3, a] = p3 - 3 * p2 + 3 * p1 - p0
+        return coef
     binom_n = 1.0
     for k in range(n + 1):
         binom_k = 1.0
         for i in range(k + 1):
             sign = 1.0 if (k - i) % 2 == 0 else -1.0
             for a in range(3):
-                coef[k, a] += sign * binom_k * p[i, a]
+                coef[0, k, a] += sign * binom_k * p[i, a]
             binom_k = binom_k * (k - i) / (i + 1)
         for a in range(3):
-            coef[k, a] *= binom_n
+            coef[0, k, a] *= binom_n
+            coef[1, k, a] = k * coef[0, k, a]
+            coef[2, k, a] = k * (k - 1) * coef[0, k, a]
         binom_n = binom_n * (n - k) / (k + 1)
-    for i in range(u.shape[0]):
-        uu = u[i]
-        for a in range(3):
-            c, d1, d2 = coef[n, a], n * coef[n, a], n * (n - 1) * coef[n, a]
-            for k in range(n - 1, -1, -1):
-                c = c * uu + coef[k, a]
-                if k >= 1:
-                    d1 = d1 * uu + k * coef[k, a]
-                if k >= 2:
-                    d2 = d2 * uu + k * (k - 1) * coef[k, a]
-            out_c[i, a], out_d1[i, a], out_d2[i, a] = c, d1, d2
+    return coef
 
 
 @njit(cache=True)
-def _frame_into(p, u, speed, t, kv, rows):
-    """Speed |C'|, unit tangent and curvature vector at u[rows] into the same rows; False
-    where the derivative vanishes."""
-    n = rows.shape[0]
-    uu = np.empty(n)
-    for r in range(n):
-        uu[r] = u[rows[r]]
-    c, d1, d2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    _derivs(p, uu, c, d1, d2)
-    for r in range(n):
-        i = rows[r]
-        sp = np.sqrt(d1[r, 0] * d1[r, 0] + d1[r, 1] * d1[r, 1] + d1[r, 2] * d1[r, 2])
-        speed[i] = sp
-        if sp <= 0:
-            return False
-        for a in range(3):
-            t[i, a] = d1[r, a] / sp
-        dot = d2[r, 0] * t[i, 0] + d2[r, 1] * t[i, 1] + d2[r, 2] * t[i, 2]
-        for a in range(3):
-            kv[i, a] = (d2[r, a] - dot * t[i, a]) / (sp * sp)
+def _derivs_at(coef, x, a):
+    """Coordinate a of C(x), C'(x), C''(x) of the Bezier whose power_coefs are coef: a cubic in
+    closed form, any other degree by Horner's rule."""
+    n = coef.shape[1] - 1
+    if n == 3:
+        p0, a1, a2, a3 = coef[0, 0, a], coef[0, 1, a], coef[0, 2, a], coef[0, 3, a]
+        return p0 + x * (a1 + x * (a2 + x * a3)), a1 + x * (2 * a2 + 3 * x * a3), 2 * a2 + 6 * x * a3
+    c, d1, d2 = coef[0, n, a], coef[1, n, a], coef[2, n, a]
+    for k in range(n - 1, 1, -1):
+        c = c * x + coef[0, k, a]
+        d1 = d1 * x + coef[1, k, a]
+        d2 = d2 * x + coef[2, k, a]
+    c = c * x + coef[0, 1, a]
+    d1 = d1 * x + coef[1, 1, a]
+    return c * x + coef[0, 0, a], d1, d2
+
+
+@njit(cache=True)
+def _speed_at(coef, x):
+    """|C'(x)|."""
+    n = coef.shape[1] - 1
+    if n == 3:
+        _, e0, _ = _derivs_at(coef, x, 0)
+        _, e1, _ = _derivs_at(coef, x, 1)
+        _, e2, _ = _derivs_at(coef, x, 2)
+        return np.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+    e0, e1, e2 = coef[1, n, 0], coef[1, n, 1], coef[1, n, 2]
+    for k in range(n - 1, 0, -1):
+        e0 = e0 * x + coef[1, k, 0]
+        e1 = e1 * x + coef[1, k, 1]
+        e2 = e2 * x + coef[1, k, 2]
+    return np.sqrt(e0 ** 2 + e1 ** 2 + e2 ** 2)
+
+
+@njit(cache=True)
+def _frame_at(coef, u, i, speed, t, kv):
+    """Speed |C'|, unit tangent and curvature vector at u[i] into row i; False where the derivative
+    vanishes."""
+    x = u[i]
+    _, d10, d20 = _derivs_at(coef, x, 0)
+    _, d11, d21 = _derivs_at(coef, x, 1)
+    _, d12, d22 = _derivs_at(coef, x, 2)
+    sp = np.sqrt(d10 * d10 + d11 * d11 + d12 * d12)
+    speed[i] = sp
+    if sp <= 0:
+        return False
+    t[i, 0], t[i, 1], t[i, 2] = d10 / sp, d11 / sp, d12 / sp
+    dot = d20 * t[i, 0] + d21 * t[i, 1] + d22 * t[i, 2]
+    kv[i, 0] = (d20 - dot * t[i, 0]) / (sp * sp)
+    kv[i, 1] = (d21 - dot * t[i, 1]) / (sp * sp)
+    kv[i, 2] = (d22 - dot * t[i, 2]) / (sp * sp)
     return True
 
 
 @njit(cache=True)
-def bezier_frame(p, u):
-    """Speed |C'|, unit tangent and curvature vector at u, and False where the derivative vanishes."""
+def _frame(coef, u):
     n = u.shape[0]
     speed, t, kv = np.empty(n), np.empty((n, 3)), np.empty((n, 3))
-    ok = _frame_into(p, u, speed, t, kv, np.arange(n))
-    return speed, t, kv, ok
+    for i in range(n):
+        if not _frame_at(coef, u, i, speed, t, kv):
+            return speed, t, kv, False
+    return speed, t, kv, True
+
+
+@njit(cache=True)
+def bezier_frame(p, u):
+    """Speed |C'|, unit tangent and curvature vector at u of the Bezier with control points p, and
+    False where the derivative vanishes."""
+    return _frame(power_coefs(p), u)
 
 
 @njit(cache=True)
@@ -114,13 +137,14 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
        max_turn_rad or that is longer than max_spacing_mm (at most 64 parts); the frames of
        the parameters kept from the round before are reused, the new ones evaluated.
     3. Simpson's rule on |C'| over each interval: the arc length s."""
+    coef = power_coefs(p)
     # 1. the start
     u = np.empty(start_per_span + 1)
     step = 1.0 / start_per_span
     for i in range(start_per_span + 1):
         u[i] = i * step
     u[start_per_span] = 1.0
-    speed, t, kv, ok = bezier_frame(p, u)
+    speed, t, kv, ok = _frame(coef, u)
     if not ok:
         return u, u, speed, t, kv, False
     # 2. refinement
@@ -139,11 +163,11 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
         if total == m:
             break
         out = np.empty(total + 1)
-        old = np.empty(m + 1, np.int64)  # where each kept parameter lands in out
+        fresh = np.ones(total + 1, np.bool_)  # a parameter not kept from the round before
         j = 0
         for i in range(m):
-            old[i] = j
             out[j] = u[i]
+            fresh[j] = False
             j += 1
             if split[i] > 1:
                 sp = min(split[i], 64)
@@ -151,34 +175,39 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
                 for r in range(1, sp):
                     out[j] = r * h + u[i]
                     j += 1
-        old[m] = j
         out[j] = u[m]
+        fresh[j] = False
         if not _increasing(out):  # rounding made a duplicate: the sorted unique set, all evaluated
             u = np.unique(out)
-            speed, t, kv, ok = bezier_frame(p, u)
+            speed, t, kv, ok = _frame(coef, u)
             if not ok:
                 return u, u, speed, t, kv, False
             continue
         speed_n, t_n, kv_n = np.empty(total + 1), np.empty((total + 1, 3)), np.empty((total + 1, 3))
-        fresh = np.ones(total + 1, np.bool_)
-        for i in range(m + 1):
-            speed_n[old[i]] = speed[i]
-            t_n[old[i]] = t[i]
-            kv_n[old[i]] = kv[i]
-            fresh[old[i]] = False
-        if not _frame_into(p, out, speed_n, t_n, kv_n, np.nonzero(fresh)[0]):
-            return out, out, speed_n, t_n, kv_n, False
+        j = 0
+        for i in range(total + 1):
+            if fresh[i]:
+                if not _frame_at(coef, out, i, speed_n, t_n, kv_n):
+                    return out, out, speed_n, t_n, kv_n, False
+            else:
+                speed_n[i] = speed[j]
+                t_n[i] = t[j]
+                kv_n[i] = kv[j]
+                j += 1
         u, speed, t, kv = out, speed_n, t_n, kv_n
     # 3. the arc length
-    mid = 0.5 * (u[:-1] + u[1:])
-    mid_speed, _, _, ok = bezier_frame(p, mid)
-    if not ok:
-        return u, u, speed, t, kv, False
-    s = np.empty(u.shape[0])
+    n = u.shape[0]
+    s = np.empty(n)
     s[0] = 0.0
     acc = 0.0
-    for i in range(u.shape[0] - 1):
-        acc += (speed[i] + 4 * mid_speed[i] + speed[i + 1]) / 6 * (u[i + 1] - u[i])
+    for i in range(n - 1):
+        _, e0, _ = _derivs_at(coef, 0.5 * (u[i] + u[i + 1]), 0)
+        _, e1, _ = _derivs_at(coef, 0.5 * (u[i] + u[i + 1]), 1)
+        _, e2, _ = _derivs_at(coef, 0.5 * (u[i] + u[i + 1]), 2)
+        mid_speed = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if mid_speed <= 0:
+            return u, u, speed, t, kv, False
+        acc += (speed[i] + 4 * mid_speed + speed[i + 1]) / 6 * (u[i + 1] - u[i])
         s[i + 1] = acc
     return s, u, speed, t, kv, True
 
@@ -204,46 +233,35 @@ def bezier_tables(ctrl, start_per_span, rounds, max_turn_rad, max_spacing_mm):
 
 
 @njit(cache=True)
-def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
-    """Points at arc lengths s: u from the table, then three Newton steps on the arc length
-    (Gauss-Legendre nodes xg, weights wg from the table sample below)."""
-    n = s.shape[0]
+def _points_into(coef, s_tab, u_tab, s, xg, wg, out):
+    """bezier_points_at of the Bezier whose power_coefs are coef, into out."""
     length = s_tab[-1]
     last = s_tab.shape[0] - 2
-    u = np.empty(n)
-    uk = np.empty(n)
-    uk1 = np.empty(n)
-    sk = np.empty(n)
-    target = np.empty(n)
-    for i in range(n):
-        si = min(max(s[i], 0.0), length)
-        target[i] = si
-        k = min(max(np.searchsorted(s_tab, si, side="right") - 1, 0), last)
+    for i in range(s.shape[0]):
+        target = min(max(s[i], 0.0), length)
+        k = min(max(np.searchsorted(s_tab, target, side="right") - 1, 0), last)
         h = s_tab[k + 1] - s_tab[k]
-        q = (si - s_tab[k]) / h if h > 0 else 0.0
-        uk[i], uk1[i], sk[i] = u_tab[k], u_tab[k + 1], s_tab[k]
-        u[i] = u_tab[k] + q * (u_tab[k + 1] - u_tab[k])
-    g = xg.shape[0]
-    uu = np.empty(n * g)
-    c, d1, d2 = np.empty((n * g, 3)), np.empty((n * g, 3)), np.empty((n * g, 3))
-    c1, e1, e2 = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    for _ in range(3):
-        for i in range(n):
-            du = u[i] - uk[i]
-            for j in range(g):
-                uu[i * g + j] = uk[i] + 0.5 * du * (xg[j] + 1)
-        _derivs(p, uu, c, d1, d2)
-        _derivs(p, u, c1, e1, e2)
-        for i in range(n):
+        q = (target - s_tab[k]) / h if h > 0 else 0.0
+        uk, uk1, sk = u_tab[k], u_tab[k + 1], s_tab[k]
+        u = uk + q * (uk1 - uk)
+        for _ in range(3):
+            du = u - uk
             quad = 0.0
-            for j in range(g):
-                r = i * g + j
-                quad += np.sqrt(d1[r, 0] ** 2 + d1[r, 1] ** 2 + d1[r, 2] ** 2) * wg[j]
-            s_u = sk[i] + 0.5 * (u[i] - uk[i]) * quad
-            speed = np.sqrt(e1[i, 0] ** 2 + e1[i, 1] ** 2 + e1[i, 2] ** 2)
-            u[i] = min(max(u[i] - (s_u - target[i]) / speed, uk[i]), uk1[i])
-    _derivs(p, u, c1, e1, e2)
-    return c1
+            for j in range(xg.shape[0]):
+                quad += _speed_at(coef, uk + 0.5 * du * (xg[j] + 1)) * wg[j]
+            s_u = sk + 0.5 * (u - uk) * quad
+            u = min(max(u - (s_u - target) / _speed_at(coef, u), uk), uk1)
+        for a in range(3):
+            out[i, a] = _derivs_at(coef, u, a)[0]
+
+
+@njit(cache=True)
+def bezier_points_at(p, s_tab, u_tab, s, xg, wg):
+    """Points at arc lengths s on the Bezier with control points p: u from the table, then three
+    Newton steps on the arc length (Gauss-Legendre nodes xg, weights wg from the table sample below)."""
+    out = np.empty((s.shape[0], 3))
+    _points_into(power_coefs(p), s_tab, u_tab, s, xg, wg, out)
+    return out
 
 
 @njit(cache=True)
@@ -255,8 +273,8 @@ def bezier_points_runs(ctrl, ctrl_first, s_tab, u_tab, tab_first, s, run_first, 
     out = np.empty((s.shape[0], 3))
     for r in range(run_first.shape[0] - 1):
         a, z = tab_first[r], tab_first[r + 1]
-        out[run_first[r]:run_first[r + 1]] = bezier_points_at(ctrl[ctrl_first[r]:ctrl_first[r + 1]], s_tab[a:z],
-                                                              u_tab[a:z], s[run_first[r]:run_first[r + 1]], xg, wg)
+        _points_into(power_coefs(ctrl[ctrl_first[r]:ctrl_first[r + 1]]), s_tab[a:z], u_tab[a:z],
+                     s[run_first[r]:run_first[r + 1]], xg, wg, out[run_first[r]:run_first[r + 1]])
     return out
 
 
