@@ -46,6 +46,7 @@ LONG_LEG = 1.5  # a segment this much longer than its shorter neighbour gets a j
 MAX_SPAN_POINTS = 400  # path points inside one span at most
 MAX_FAILS = 8  # spans from the nearest junctions back that may fail before a junction gives up
 INF = 1 << 40
+SLOTS = 6  # junctions per vertex at most (junctions)
 BOTH, ARRIVE, LEAVE = 0, 1, 2  # what spans a junction may take: a sharp corner's sides are one-way
 
 
@@ -95,36 +96,30 @@ def junctions(points: np.ndarray, tan_in: np.ndarray, tan_out: np.ndarray, on_ar
     behind[chord] = tan_in[chord]
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", tan_in, tan_out), -1.0, 1.0))
     leg = _leg_junctions(points, u, h, turn, on_arc)
-    pos, pt, tan, vert, role = [], [], [], [], []
-
-    def add(p, x, t, v, r=BOTH):
-        pos.append(p)
-        pt.append(x)
-        tan.append(t)
-        vert.append(v)
-        role.append(r)
-
-    for i in range(n + 1):
-        if on_arc[i]:
-            add(float(i), points[i], tan_out[i], i)
-        else:
-            ends = (i == 0, i == n)
-            if not sharp[i]:
-                add(float(i), points[i], smooth[i], i)
-            corner = turn[i] > CORNER_OPTION_RAD or sharp[i]
-            leave, arrive = (LEAVE, ARRIVE) if sharp[i] else (BOTH, BOTH)
-            if ends[0] or corner:
-                add(float(i), points[i], tan_out[i], i, leave)
-                if corner and 0 < i < n - 1:
-                    add(float(i), points[i], ahead[i], i, leave)
-            if (ends[1] or corner) and not ends[0]:
-                add(float(i), points[i], tan_in[i], i, arrive)
-                if corner and 1 < i < n:
-                    add(float(i), points[i], behind[i], i, arrive)
-        if i < n and leg[i]:
-            add(i + 0.5, 0.5 * (points[i] + points[i + 1]), u[i], -1)
-    return Junctions(np.array(pos), np.array(pt), _unit(np.array(tan)), np.array(vert, dtype=np.int64),
-                     np.array(role, dtype=np.int64))
+    # up to SLOTS junctions per vertex, in this order: the smooth or arc tangent; leaving: tan_out, then
+    # `ahead` at a corner; arriving: tan_in, then `behind`; the middle of the segment after it
+    idx = np.arange(n + 1)
+    corner = ~on_arc & ((turn > CORNER_OPTION_RAD) | sharp)
+    first, last = idx == 0, idx == n
+    leave = np.where(sharp, LEAVE, BOTH)
+    arrive = np.where(sharp, ARRIVE, BOTH)
+    take = np.zeros((n + 1, SLOTS), dtype=bool)
+    take[:, 0] = on_arc | ~sharp
+    take[:, 1] = ~on_arc & (first | corner)
+    take[:, 2] = corner & (idx > 0) & (idx < n - 1)
+    take[:, 3] = ~on_arc & (last | corner) & ~first
+    take[:, 4] = corner & (idx > 1) & (idx < n)
+    take[:-1, 5] = leg
+    tan = np.stack([np.where(on_arc[:, None], tan_out, smooth), tan_out, ahead, tan_in, behind,
+                    np.vstack([u, u[-1:]])], axis=1)
+    pt = np.repeat(points[:, None, :], SLOTS, axis=1)
+    pt[:-1, 5] = 0.5 * (points[:-1] + points[1:])
+    pos = np.repeat(idx[:, None].astype(float), SLOTS, axis=1)
+    pos[:, 5] += 0.5
+    vert = np.repeat(idx[:, None], SLOTS, axis=1)
+    vert[:, 5] = -1
+    role = np.stack([np.full(n + 1, BOTH), leave, leave, arrive, arrive, np.full(n + 1, BOTH)], axis=1)
+    return Junctions(pos[take], pt[take], _unit(tan[take]), vert[take].astype(np.int64), role[take].astype(np.int64))
 
 
 def _leg_junctions(points: np.ndarray, u: np.ndarray, h: np.ndarray, turn: np.ndarray,

@@ -193,9 +193,10 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     plans = _map(planner, chains, options, jobs=jobs)
     writer = g52_text if dialect == "g5.2" else group_text
     chain_frames = [frames[c.moves[0].line] for c in chains]
-    written = _written_all(chains, plans, chain_frames, tol_mm, writer, walkable, jobs)
+    how = (tol_mm, writer, walkable, jobs)
+    written = _written_all(chains, plans, chain_frames, how)
     for _ in range(SPLITS):
-        if not _split_refused(chains, options, chain_frames, plans, written, planner, (tol_mm, writer, walkable, jobs)):
+        if not _split_refused(chains, options, chain_frames, plans, written, planner, how):
             break
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
@@ -255,13 +256,13 @@ def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_
     return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
 
 
-def _map(fn, *items: list, jobs: int | None) -> list:
+def _map(fn, *items: list, jobs: int | None, least: int | None = None) -> list:
     """fn over the items in order, in worker processes where there is more than one core to use and
-    enough items to share (each call is independent of the others)."""
+    enough items to share, at least `least` (default 2 x jobs; each call is independent of the others)."""
     jobs = (os.cpu_count() or 1) if jobs is None else jobs
     if jobs < 1:
         raise IpoError(FIT_SETTINGS, f"jobs must be >= 1, got {jobs}")
-    if jobs == 1 or len(items[0]) < 2 * jobs:
+    if jobs == 1 or len(items[0]) < (2 * jobs if least is None else least):
         return [fn(*args) for args in zip(*items)]
     # a few chunks per worker: sizes vary (one chain can hold most of a program), and tiny tasks one by
     # one would cost more in hand-overs than they do to run
@@ -280,30 +281,34 @@ class _Written:
     refused: str | None  # why the controller cannot follow it (walkable), or None
 
 
-def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame], tol_mm: float, writer,
-                 walkable, jobs: int | None) -> list[list[_Written | None]]:
-    """Every fitted span written out (None where it is kept): STEP 1 write it and measure the curve as
-    written; STEP 2 the controller's check of those within tol, in the worker pool (the check builds the
-    arc-length tables of the run itself, most of a fit's time on dense real programs)."""
-    cands = []  # (chain index, span index, text, curve as written (None: off), deviation)
-    for i, (chain, spans, frame) in enumerate(zip(chains, plans, frames)):
-        digits = coordinate_digits(tol_mm, frame.unit_mm)
-        for j, span in enumerate(spans):
-            if span.fit is None:
-                continue
-            moves = chain.moves[span.first:span.last]
-            feed = _group_feed(chain, span)
-            text, written = writer(span.fit, feed, frame, digits)
-            sag = chain.sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
-            dev = written_deviation_mm(written, span.data, tol_mm - sag) + sag
-            cands.append((i, j, text, Nurbs(moves[0].line, written.degree, written.knots, written.weights,
-                                            written.points, feed) if dev <= tol_mm else None, dev))
-    tested = [c for c in cands if c[3] is not None and walkable is not None]
-    verdicts = dict(zip(((c[0], c[1]) for c in tested), _map(walkable, [c[3] for c in tested], jobs=jobs)))
+def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame], how: tuple,
+                 least: int | None = None) -> list[list[_Written | None]]:
+    """Every fitted span written out (None where it is kept), in the worker pool (_written; least: as
+    _map's). how: (tol_mm, writer, walkable, jobs)."""
+    tol_mm, writer, walkable, jobs = how
+    at = [(i, j) for i, spans in enumerate(plans) for j, span in enumerate(spans) if span.fit is not None]
+    moves = [chains[i].moves[plans[i][j].first:plans[i][j].last] for i, j in at]
+    done = _map(_written, [plans[i][j] for i, j in at], moves, [frames[i] for i, _ in at],
+                [chains[i].sag_mm for i, _ in at], [(tol_mm, writer, walkable)] * len(at), jobs=jobs, least=least)
     out: list[list[_Written | None]] = [[None] * len(spans) for spans in plans]
-    for i, j, text, _, dev in cands:
-        out[i][j] = _Written(text, dev, dev > tol_mm, verdicts.get((i, j)))
+    for (i, j), w in zip(at, done):
+        out[i][j] = w
     return out
+
+
+def _written(span: Span, moves: tuple, frame: Frame, sag_mm: float, how: tuple) -> _Written:
+    """A fitted span as written: STEP 1 write it and measure the curve as written; STEP 2 where it is within
+    tol, the controller's check (it builds the arc-length tables of the run itself, most of a fit's time on
+    dense real programs). how: (tol_mm, writer, walkable)."""
+    tol_mm, writer, walkable = how
+    feed = _lowest_feed(moves)
+    text, written = writer(span.fit, feed, frame, coordinate_digits(tol_mm, frame.unit_mm))
+    sag = sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
+    dev = written_deviation_mm(written, span.data, tol_mm - sag) + sag
+    refused = None
+    if dev <= tol_mm and walkable is not None:
+        refused = walkable(Nurbs(moves[0].line, written.degree, written.knots, written.weights, written.points, feed))
+    return _Written(text, dev, dev > tol_mm, refused)
 
 
 def _split_refused(chains: list[Chain], options: list[FitOptions], frames: list[Frame], plans: list[list[Span]],
@@ -321,10 +326,9 @@ def _split_refused(chains: list[Chain], options: list[FitOptions], frames: list[
         for a, b in ((span.first, mid), (mid, span.last)):
             restore = options[i].restore_blocks if b == len(chains[i].moves) else 0
             halves.append((sub_chain(chains[i], a, b), replace(options[i], restore_blocks=restore), frames[i], a))
-    tol_mm, writer, walkable, jobs = how
-    new_plans = _map(planner, [h[0] for h in halves], [h[1] for h in halves], jobs=jobs)
-    new_written = _written_all([h[0] for h in halves], new_plans, [h[2] for h in halves], tol_mm, writer, walkable,
-                               jobs)
+    # the halves are few but long (a refused group is long): shared by the workers all the same
+    new_plans = _map(planner, [h[0] for h in halves], [h[1] for h in halves], jobs=how[3], least=2)
+    new_written = _written_all([h[0] for h in halves], new_plans, [h[2] for h in halves], how, least=2)
     for k, (i, j) in reversed(list(enumerate(todo))):  # the last first: the indices before it stay
         pair = (2 * k, 2 * k + 1)
         plans[i][j:j + 1] = [replace(s, first=s.first + halves[h][3], last=s.last + halves[h][3])
@@ -367,8 +371,12 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
 
 
 def _group_feed(chain: Chain, span: Span) -> float:
+    return _lowest_feed(chain.moves[span.first:span.last])
+
+
+def _lowest_feed(moves) -> float:
     """A group's F: the lowest its moves have (they differ only where all are beyond the machine's reach)."""
-    return min(m.feed_mm_s for m in chain.moves[span.first:span.last])
+    return min(m.feed_mm_s for m in moves)
 
 
 def _group_for(written: _Written, line: int, report: ConvertReport) -> list[str] | None:
