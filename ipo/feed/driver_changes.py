@@ -36,9 +36,10 @@ class DriverChanges:
         self[k]  # a KeyError for a curve that is not there, as a dict's del
         self.changed[k] = None
 
-    def add(self, blends: list) -> range:
-        """New blend curves: their indices, with their drivers made (in one call: a build has thousands)."""
+    def add(self, blends: list) -> tuple[range, list]:
+        """New blend curves: their indices and their drivers, made in one call (a build has thousands)."""
         idx = range(self._next + self.added, self._next + self.added + len(blends))
         self.added += len(blends)
-        self.changed.update(zip(idx, self._make(blends)))
-        return idx
+        made = self._make(blends)
+        self.changed.update(zip(idx, made))
+        return idx, made

@@ -328,10 +328,10 @@ def _put_blends(pc: Pieces, slots: np.ndarray, ctrls: list[np.ndarray], nurbs: D
     (whose line and feed, those of the move before each, are set)."""
     if not ctrls:
         return
-    idx = nurbs.add(list(zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)))
+    idx, curves = nurbs.add(list(zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)))
     pc.kind[slots] = KIND_BLEND
     pc.nurbs[slots] = idx
-    pc.length[slots] = [nurbs[i].table.length for i in idx]
+    pc.length[slots] = [c.table.s[-1] for c in curves]
     pc.c[slots] = [ctrl[0] for ctrl in ctrls]
 
 

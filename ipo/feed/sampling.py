@@ -244,7 +244,7 @@ def blend_tables(ctrls, lines) -> list[NurbsTable]:
         bad += [rows[r] for r in np.flatnonzero(~ok)]
         first = first.tolist()
         for i, a, z in zip(rows, first[:-1], first[1:]):
-            out[i] = NurbsTable(s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z], bezier=True)
+            out[i] = NurbsTable(s[a:z], u[a:z], speed[a:z], t[a:z], kv[a:z], 0.0, True)
     if bad:
         raise IpoError(NURBS_PATH, "NURBS has a vanishing derivative (a cusp or repeated points)", lines[min(bad)])
     return out

@@ -147,17 +147,22 @@ def bezier_table(p, start_per_span, rounds, max_turn_rad, max_spacing_mm):
     speed, t, kv, ok = _frame(coef, u)
     if not ok:
         return u, u, speed, t, kv, False
-    # 2. refinement
+    # 2. refinement; an interval whose tangents' cosine is this far above cos(max_turn_rad) turns by
+    # less than max_turn_rad, so its arc cosine cannot make it split or change its parts
+    cos_within = np.cos(max_turn_rad * (1.0 - 1e-6))
     for _ in range(rounds):
         m = u.shape[0] - 1
         split = np.empty(m, np.int64)
         total = 0
+        k1 = np.sqrt(kv[0, 0] ** 2 + kv[0, 1] ** 2 + kv[0, 2] ** 2)
         for i in range(m):
             ds = 0.5 * (speed[i] + speed[i + 1]) * (u[i + 1] - u[i])
-            k0 = np.sqrt(kv[i, 0] ** 2 + kv[i, 1] ** 2 + kv[i, 2] ** 2)
+            k0 = k1
             k1 = np.sqrt(kv[i + 1, 0] ** 2 + kv[i + 1, 1] ** 2 + kv[i + 1, 2] ** 2)
             cos_t = t[i, 0] * t[i + 1, 0] + t[i, 1] * t[i + 1, 1] + t[i, 2] * t[i + 1, 2]
-            turn = max(max(k0, k1) * ds, np.arccos(min(max(cos_t, -1.0), 1.0)))
+            turn = max(k0, k1) * ds
+            if not cos_t > cos_within:
+                turn = max(turn, np.arccos(min(max(cos_t, -1.0), 1.0)))
             split[i] = int(max(np.ceil(turn / max_turn_rad), np.ceil(ds / max_spacing_mm)))
             total += min(split[i], 64) if split[i] > 1 else 1
         if total == m:

@@ -407,7 +407,8 @@ def test_a_builds_driver_changes_leave_the_intakes_drivers_alone():
     ch = DriverChanges(base, next_index=5, make_drivers=lambda es: [f"driver of {e}" for e in es])
     ch[0] = "curve 0 trimmed"
     del ch[1]
-    assert (list(ch.add(["blend a"])), list(ch.add(["blend b"]))) == ([5], [6])
+    assert ch.add(["blend a"]) == (range(5, 6), ["driver of blend a"])
+    assert ch.add(["blend b"]) == (range(6, 7), ["driver of blend b"])
     assert ch[0] == "curve 0 trimmed" and ch[6] == "driver of blend b"
     with pytest.raises(KeyError):
         ch[1]
