@@ -1,6 +1,7 @@
-"""numpy's linspace and interp, and the dot product of 3-vectors, as numba kernels, to the bit: for
-compiled code that must pick the same parameters as a numpy path beside it (ipo.feed.table_verdict
-beside nurbs_table, the fit's curve samples) or that tests thousands of conic spans (ipo.fit.conic)."""
+"""numpy's linspace and interp as numba kernels, to the bit, and the dot product of 3-vectors in one fixed
+order: for compiled code that must pick the same parameters as a numpy path beside it (ipo.feed.table_verdict
+beside nurbs_table, the fit's curve samples, the corner blends of ipo.feed.arc_corners beside curve_corner's)
+or that tests thousands of conic spans (ipo.fit.conic)."""
 from __future__ import annotations
 
 import numpy as np
@@ -41,8 +42,9 @@ def _fma(typingctx, a, b, c):
 
 @njit(cache=True)
 def dot3(a, b):
-    """a @ b of two 3-vectors as numba's `@` forms it here (BLAS ddot: a fused multiply-add chain, measured
-    equal on 500,000 random pairs), without its call and temporaries."""
+    """a . b of two 3-vectors as a chain of fused multiply-adds, the same bits on every CPU: `@` and np.dot
+    call BLAS's ddot, whose order of operations depends on the CPU it runs on (an FMA chain on one host,
+    products summed left to right on an AMD EPYC with AVX-512)."""
     return _fma(a[2], b[2], _fma(a[1], b[1], a[0] * b[0]))
 
 

@@ -40,7 +40,7 @@ def _side_at(g, is_arc, start, unit, i, s, p, t, kv, row):
 def _ends(g, is_arc, start, unit, length, js, d):
     """For corner k between moves js[k] and js[k] + 1: the points and tangents d[k] before and
     after it (pa, ta, pb, tb), the cosine of the tangents' angle clipped to [-1, 1] and the
-    squared chord |pb - pa|^2 (the dot products as numpy's of two 3-vectors: ipo.numpy_kernels.dot3)."""
+    squared chord |pb - pa|^2 (the dot products as arc_cubic's: ipo.numpy_kernels.dot3)."""
     n = js.shape[0]
     pa, ta, pb, tb = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
     cos_t, chord2 = np.empty(n), np.empty(n)

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ipo.feed.blends.compiled import blend_deviation, cubic_points, polyline_distance
+from ipo.numpy_kernels import dot3
 
 _CHECK_BLEND = 33  # points checked along the cubic (its midpoint among them)
 _CHECK_SIDE = 65  # points of each move's trimmed stretch (a polyline far finer than P)
@@ -41,9 +42,11 @@ def arc_cubic(a: np.ndarray, ta: np.ndarray, b: np.ndarray, tb: np.ndarray) -> n
     """Control points (4, 3) of the cubic from a to b tangent to ta and tb, with the handles
     h = 4/3 tan(phi/4) R of the circular arc of turn phi through a and b, which with the chord
     |b - a| = 2 R sin(phi/2) is h = |b - a| / (3 cos^2(phi/4))."""
-    phi = np.arccos(min(max(float(np.dot(ta, tb)), -1.0), 1.0))  # np.clip of one float, without its overhead
+    # the dot products as dot3 forms them, not numpy's: numpy's BLAS sums 3-vectors in an order that differs
+    # from one CPU to another, and the batched blends (ipo.feed.arc_corners) must make the same bits
+    phi = np.arccos(min(max(dot3(ta, tb), -1.0), 1.0))  # np.clip of one float, without its overhead
     chord = b - a
-    h = math.sqrt(chord.dot(chord)) / (3.0 * np.cos(0.25 * phi) ** 2)  # |b - a| as np.linalg.norm computes it
+    h = math.sqrt(dot3(chord, chord)) / (3.0 * np.cos(0.25 * phi) ** 2)
     return np.array([a, a + h * ta, b - h * tb, b])
 
 
