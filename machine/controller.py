@@ -12,8 +12,10 @@ coolant and tool changes. Ctrl-C stops the run cleanly; the result says where.
 """
 from __future__ import annotations
 
+import gc
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -72,6 +74,23 @@ class RunResult:
 
 
 
+@contextmanager
+def _collector_held():
+    """Python's cyclic garbage collector held while the check or the run streams the program
+    (and as it was afterwards). Both make millions of short-lived objects (entities, a record
+    per motion, the planner's arrays) that reference counting frees and that form no cycles (a
+    whole check and run of g1_stellabee1 leaves 15-30 unreachable objects, whatever the
+    program's length); the collector would only traverse each batch of them while it is
+    alive, promote it and traverse it again: 0.2 s of stellabee1's 3.3 s of CPU."""
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
 def _axes(values) -> str:
     return " ".join(f"{float(v):g}" for v in values)
 
@@ -97,7 +116,8 @@ class Controller:
 
     def check(self, path: str | Path) -> CheckedProgram:
         """Interpret and check the whole program (machine.check); raise ProgramRejected with every reason."""
-        program, self.check_s = check_program(path, self.config, self.limits.min_mm, self.limits.max_mm)
+        with _collector_held():
+            program, self.check_s = check_program(path, self.config, self.limits.min_mm, self.limits.max_mm)
         return program
 
     def make_drive(self, program: CheckedProgram) -> Drive:
@@ -107,6 +127,10 @@ class Controller:
     def run(self, program: CheckedProgram, *, progress: Callable[[int], None] | None = None,
             player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
+        with _collector_held():
+            return self._run(program, progress, player)
+
+    def _run(self, program: CheckedProgram, progress: Callable[[int], None] | None, player) -> RunResult:
         plan = self.planner
         if plan is None:
             from machine.planners import planner_for

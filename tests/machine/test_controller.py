@@ -247,6 +247,23 @@ def test_a_bug_in_the_planner_is_not_taken_for_a_refusal():
         controller(items).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
 
 
+def test_the_collector_is_held_while_the_run_streams_and_restored_after_a_failure():
+    import gc
+    seen = []
+
+    def planner(entities, config, *, method, feed_override, start_mm):
+        seen.append(gc.isenabled())
+        yield from line_stream(10.0, size=10)
+        raise ValueError("a bug")
+
+    from ipo.config import default_config
+    from machine.controller import Controller
+    assert gc.isenabled()
+    with pytest.raises(ValueError, match="a bug"):
+        Controller(default_config(), planner=planner).run(program_of(Line(21, (0, 0, 0), (1, 0, 0), 9)))
+    assert seen == [False] and gc.isenabled()
+
+
 def test_a_nurbs_the_planner_cannot_walk_is_rejected_before_anything_moves(tmp_path):
     from ipo.config import default_config
     from machine.controller import Controller, ProgramRejected
