@@ -7,8 +7,8 @@ multiplicity = degree. The program is interpreted once, line by line, so each en
 source line and the modes and offsets in force there; lines outside a fitted piece are copied
 unchanged. The curve as written (rounded) is checked against the tolerance again, and by the
 controller's own test where the caller hands it in (`walkable`: machine/ does, so that vcnc fit
-never writes a group vcnc run refuses); the moves of a group it refuses are planned again in halves
-(up to SPLITS times), and a piece that still fails either check stays G01.
+never writes a group vcnc run refuses); the moves of a group that fails either check are planned again
+in halves (up to SPLITS times), and a piece that still fails stays G01.
 """
 from __future__ import annotations
 
@@ -42,7 +42,7 @@ AXIS_LETTERS = frozenset("XYZ")
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
 REFUSED = "the controller cannot follow the group"  # why a group that fits is kept G1 (walkable said no)
-SPLITS = 3  # a group the controller refuses is planned again in halves, this many times at most
+SPLITS = 3  # a group that fails a check as written is planned again in halves, this many times at most
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
@@ -196,7 +196,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     how = (tol_mm, writer, walkable, jobs)
     written = _written_all(chains, plans, chain_frames, how)
     for _ in range(SPLITS):
-        if not _split_refused(chains, options, chain_frames, plans, written, planner, how):
+        if not _split_failed(chains, options, chain_frames, plans, written, planner, how):
             break
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
@@ -311,14 +311,16 @@ def _written(span: Span, moves: tuple, frame: Frame, sag_mm: float, how: tuple) 
     return _Written(text, dev, dev > tol_mm, refused)
 
 
-def _split_refused(chains: list[Chain], options: list[FitOptions], frames: list[Frame], plans: list[list[Span]],
-                   written: list[list[_Written | None]], planner, how: tuple) -> bool:
-    """Each group the controller refuses planned again as two chains of half its moves, written and checked,
-    in its place in plans and written; whether there was one. A group's weights and knot intervals spread
-    with its length (ipo.fit.weights) and the controller's arc-length table refuses the extremes: on
-    g1_lhchips4 at 5 um two refused groups kept 700 moves as G1."""
+def _split_failed(chains: list[Chain], options: list[FitOptions], frames: list[Frame], plans: list[list[Span]],
+                  written: list[list[_Written | None]], planner, how: tuple) -> bool:
+    """Each group that is off as written or that the controller refuses, planned again as two chains of half
+    its moves, written and checked, in its place in plans and written; whether there was one. A group's
+    weights and knot intervals spread with its length (ipo.fit.weights) and the controller's arc-length
+    table refuses the extremes: on g1_lhchips4 at 5 um two refused groups kept 700 moves as G1. The joined
+    spans move a little from the spans as planned (3-D junctions, rounding): one group off by a fraction of a
+    micrometre would otherwise keep hundreds of moves as G1."""
     todo = [(i, j) for i, groups in enumerate(written) for j, w in enumerate(groups)
-            if w is not None and w.refused is not None and plans[i][j].last - plans[i][j].first >= 4]
+            if w is not None and (w.off or w.refused is not None) and plans[i][j].last - plans[i][j].first >= 4]
     halves = []  # (chain, options, frame, first move in the whole chain)
     for i, j in todo:
         span = plans[i][j]

@@ -22,7 +22,7 @@ def _relief_raster() -> str:
     ridges (turns of 5-40 degrees), 90-degree step-overs between passes, 3 decimals."""
     x = np.arange(0.0, 45.0, 0.75)
     words = []
-    for row, y in enumerate(np.arange(0.0, 6.0, 0.5)):
+    for row, y in enumerate(np.arange(0.0, 8.0, 0.5)):  # 16 passes: >= 30 parts (12 gave 26)
         xs = x if row % 2 == 0 else x[::-1]
         z = -1.0 + 0.8 * np.sin(xs / 3.0 + y) + 0.6 * np.abs(np.sin(xs / 7.0))
         words += [f"X{a:.3f} Y{y:.3f} Z{c:.3f}" for a, c in zip(xs, z)]
