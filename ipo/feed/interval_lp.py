@@ -13,6 +13,9 @@ tests/ipo/feed/lp_reference.py enumerates them all). The backward pass solves
 the pair that was optimal in the interval before (neighbouring intervals are alike) and,
 when that vertex is certified optimal, enumerates only the rows that pass near it: the
 same vertices, the same arithmetic, so the same result to the bit, at a tenth of the cost.
+Usually only the optimal pair's own two rows pass near it and no two rows are nearly parallel:
+then there is nothing to enumerate, which a screen of the axis rows' directions tells at a
+fraction of the enumeration's cost (stellabee1's backward pass 100 -> 86 ns per interval).
 
 The kernels here are compiled without numba's runtime (`_nrt=False`, the option numba's own
 `register_jitable` documents for code that allocates nothing): none of them allocates, returns
@@ -130,6 +133,22 @@ def _near_vertex(r, n, tol, near, best, pair):
 
 
 @njit(cache=True, _nrt=False)
+def _any_unstable(r, m):
+    """Whether _near_vertex may meet two rows of different directions that are nearly parallel
+    (it enumerates those whatever their distance): two of the m rows of the axis limits, or one
+    of them and a box row, whose normal (1, 0) or (0, 1) makes the determinant the row's other
+    component, exactly. A NaN counts as nearly parallel, as it does there."""
+    for e in range(0, m, 2):
+        if not (abs(r[e, 0]) >= _DET_STABLE and abs(r[e, 1]) >= _DET_STABLE):
+            return True
+        for f in range(e + 2, m, 2):
+            d = abs(r[e, 0] * r[f, 1] - r[e, 1] * r[f, 0])
+            if not (d < _DET_MIN or d >= _DET_STABLE):
+                return True
+    return False
+
+
+@njit(cache=True, _nrt=False)
 def _certified(r, n, tol, a_top, b_top, i, j, near, pair):
     """The enumeration's value from the vertex of rows i < j if it can be certified there (steps
     1-3 of max_start_from), else -2; the optimum's pair into `pair`."""
@@ -156,8 +175,13 @@ def _certified(r, n, tol, a_top, b_top, i, j, near, pair):
     tau = tol + 4.0 * res + 8.0 * _ULP * scale
     reach = 2.0 * tau * (max(1.0, l2 / l1) + max(1.0, l1 / l2)) / abs(det)
     # 3. the rows near v0, and their pairs
+    n_near = 0
     for q in range(n):
         near[q] = abs(r[q, 0] * a0 + r[q, 1] * b0 - r[q, 2]) <= 2.0 * reach + _STABLE_RES * scale
+        n_near += near[q]
+    if n_near == 2 and near[i] and near[j] and not _any_unstable(r, n - 4):
+        # the usual case: _near_vertex would try (i, j) alone, the same arithmetic as v0's
+        return min(a0, a_top)
     return min(_near_vertex(r, n, tol, near, a0, pair), a_top)
 
 

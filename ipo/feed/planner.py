@@ -169,8 +169,8 @@ class FeedPlanner:
     def _feed_v2(self, n: int) -> np.ndarray:
         """Programmed v^2 at the first n samples, with the feed override (not on rapids)."""
         win = self._win
-        loc = win.samples.piece[:n] - win.piece_base
-        return (win.pieces.feed_mm_s[loc] * np.where(win.pieces.rapid[loc], 1.0, self._override))**2
+        pc = win.pieces  # per piece, then to the samples: a window has ~20 samples per piece
+        return ((pc.feed_mm_s * np.where(pc.rapid, 1.0, self._override))**2)[win.samples.piece[:n] - win.piece_base]
 
     def _soft_caps(self) -> tuple[np.ndarray, np.ndarray]:
         win = self._win
