@@ -106,13 +106,12 @@ class DriveStats:
 
 
 @njit(cache=True)
-def _sagitta(p, i):
-    """Sagitta of the chord p[i]→p[i+1] on the circle through p[i], p[i+1], p[i+2] (0 if collinear)."""
+def _sagitta(p, i, la, lb):
+    """Sagitta of the chord p[i]→p[i+1] on the circle through p[i], p[i+1], p[i+2] (0 if collinear);
+    la and lb are the lengths of p[i]→p[i+1] and p[i+1]→p[i+2] (_chord)."""
     ax, ay, az = p[i + 1, 0] - p[i, 0], p[i + 1, 1] - p[i, 1], p[i + 1, 2] - p[i, 2]
     bx, by, bz = p[i + 2, 0] - p[i + 1, 0], p[i + 2, 1] - p[i + 1, 1], p[i + 2, 2] - p[i + 1, 2]
     cx, cy, cz = ax + bx, ay + by, az + bz
-    la = math.sqrt(ax * ax + ay * ay + az * az)
-    lb = math.sqrt(bx * bx + by * by + bz * bz)
     lc = math.sqrt(cx * cx + cy * cy + cz * cz)
     ux, uy, uz = ay * cz - az * cy, az * cx - ax * cz, ax * cy - ay * cx
     area2 = math.sqrt(ux * ux + uy * uy + uz * uz)  # twice the triangle's area
@@ -120,6 +119,13 @@ def _sagitta(p, i):
         return 0.0
     rho = la * lb * lc / (2.0 * area2)  # circumradius
     return rho - math.sqrt(max(rho * rho - 0.25 * la * la, 0.0))
+
+
+@njit(cache=True)
+def _chord(p, r):
+    """Length of p[r]→p[r+1]."""
+    dx, dy, dz = p[r + 1, 0] - p[r, 0], p[r + 1, 1] - p[r, 1], p[r + 1, 2] - p[r, 2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @njit(cache=True)
@@ -133,6 +139,8 @@ def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
     ht = h * period_s
     v_tol, a_tol, j_tol = blu / period_s, 2.0 * blu / ht**2, 4.0 * blu / ht**3  # rounding: 0.5 BLU a position
     p = np.empty((3, 3))
+    first = max(old, 2)
+    chord_out = 0.0
     for i in range(max(old, 1), m):
         d2 = 0.0
         bad_v = bad_a = bad_j = False
@@ -158,10 +166,11 @@ def _measure(ext, old, h, blu, period_s, vlim, alim, jlim, peak, counts):
             for r in range(3):
                 for a in range(3):
                     p[r, a] = ext[i - 2 + r, a] * blu
-            chord_in = math.sqrt((p[1, 0] - p[0, 0])**2 + (p[1, 1] - p[0, 1])**2 + (p[1, 2] - p[0, 2])**2)
-            chord_out = math.sqrt((p[2, 0] - p[1, 0])**2 + (p[2, 1] - p[1, 1])**2 + (p[2, 2] - p[1, 2])**2)
+            # the chord in is the last period's chord out (the same points, the same arithmetic)
+            chord_in = chord_out if i > first else _chord(p, 0)
+            chord_out = _chord(p, 1)
             if min(chord_in, chord_out) >= MIN_CHORD_BLU * blu:
-                peak[10] = max(peak[10], _sagitta(p, 0))
+                peak[10] = max(peak[10], _sagitta(p, 0, chord_in, chord_out))
 
 
 @njit(cache=True)
