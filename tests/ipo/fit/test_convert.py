@@ -347,14 +347,14 @@ def test_vcnc_compare_roughness_needs_a_cut_that_moves_a_blu(tmp_path):
 
 @pytest.mark.slow
 def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
-    """LinuxCNC's lhchips4, lines 157-800 (raster passes; lines 158-643 at F999800 and F9991300, both
-    beyond the machine's reach, are one chain), fitted at 30 um. Planned alone, that chain's first
-    group (line 6 of the plain fit) moves so unevenly in its parameter that the controller's arc-length
-    table cannot hold it (at 20 um, with 3-decimal control points, the same happened: weights from
-    1.2e-6 to 1, E-NURBS-PATH, 0.1375 mm between u = 17054.906862 and 17054.906865). vcnc fit tables
-    every group as the controller's check does and plans the moves of that one again in halves, checked
-    again (a half still refused would stay G1): machine.check accepts the program it writes, and no move
-    stays G1 for a refusal."""
+    """LinuxCNC's lhchips4, lines 919-2700 (raster passes from line 920 on at F9991300 and F999800, both
+    beyond the machine's reach, one chain), fitted at 10 um. Planned alone, that chain's group on line 502
+    of the plain fit moves so unevenly in its parameter that the controller's arc-length table cannot hold
+    it (at 20 um, with 3-decimal control points and tighter weight spreads, a group of lines 157-800 did:
+    weights from 1.2e-6 to 1, E-NURBS-PATH, 0.1375 mm between u = 17054.906862 and 17054.906865). vcnc fit
+    tables every group as the controller's check does and plans the moves of that one again in halves,
+    checked again (a half still refused would stay G1): machine.check accepts the program it writes, and no
+    move stays G1 for a refusal."""
     from conftest import require_corpus
     from ipo.config import default_config
     from ipo.feed.planner import nurbs_end_gap_mm
@@ -365,12 +365,12 @@ def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
     path = require_corpus() / "g1_lhchips4.ngc"
     if not path.exists():
         pytest.skip(f"{path} is absent")
-    lines = path.read_text().split("\n")[156:800]
-    # where line 156 leaves the machine, and the modes in force there (lines 19 and 28 of the file)
-    text = "\n".join(["G21 G64 P0.1 Q0.01", "G18", "G0 X-0.638 Y0.269 Z5.0 F9991300.0", *lines, "M2", ""])
+    lines = path.read_text().split("\n")[918:2700]
+    # where line 918 (a rapid) leaves the machine, and the modes in force there (lines 19 and 28 of the file)
+    text = "\n".join(["G21 G64 P0.1 Q0.01", "G18", "G0 X-0.042 Y12.969 Z5.0 F9991300.0", *lines, "M2", ""])
     config = default_config()
     gap = nurbs_end_gap_mm(config)
-    plain, _ = convert_text(text, 0.03, jobs=1)
+    plain, _ = convert_text(text, 0.01, jobs=1)
     refused = [e.line for e in parse_text(plain).entities if isinstance(e, Nurbs) and planning_problem(e, gap)]
     if not refused:  # the fit's weights to the last bits depend on the CPU (numpy's BLAS and LAPACK)
         pytest.skip("this CPU's arithmetic fits that chain into groups the controller takes: the refusal does not "
@@ -378,7 +378,7 @@ def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
                     "holds the mechanism on every CPU)")
     src, dst = tmp_path / "in.ngc", tmp_path / "out.ngc"
     src.write_text(text)
-    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.03", "--jobs", "1"])
+    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01", "--jobs", "1"])
     assert res.exit_code == 0, res.output
     assert "the controller cannot follow the group" not in res.output
     out = dst.read_text()
