@@ -98,9 +98,11 @@ def plan(zm, bt):
     return starts, runs, offsets, listed, np.nonzero(offsets[1:] > offsets[:-1])[0]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
-    """STEP 3 and 4 over the given blocks (any subset: blocks share no node)."""
+    """STEP 3 and 4 over the given blocks (any subset: blocks share no node). Numpy's error model, for the
+    divisions of bounds.ball_bounds, inlined here: no check of each for a zero, so that its loop vectorizes
+    (no divisor in these kernels is zero)."""
     nty, ntx = zm.tile_max.shape
     nbx = -(-ntx // BLOCK)
     for u in range(blocks.shape[0]):

@@ -34,6 +34,11 @@ SWEEP_SEGMENTS = 16
 # of them often needs the next (G rises by only (83 um)^2 / 2r = 1.1 um over a period of 83 um at 5 m/min);
 # on finish_g01.nc 2 instead of 1 took the searches from 1.35 M to 1.28 M but the envelopes from 61 M to 68 M.
 SWEEP_MARGIN = 1
+# A sweep takes its nodes in whole groups of this many (the doubles in one of the CPU's 512-bit vectors), so that
+# the loops over them leave no remainder to a scalar loop after the vector one: on finish_g01.nc a scalar node
+# cost about as much as a vector of 8, and sweeps from the first node the run may lower to the last left 3.5
+# nodes to it on average (a tile's row is 8 nodes: the groups are whole rows)
+VECTOR_NODES = 8
 
 
 @njit(cache=True, inline="always")
@@ -167,6 +172,7 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, n
         return
     # only the nodes m0 .. m1-1 (the rows the run may lower, the tile's nodes being row after row), as
     # arrays of their own: loops from 0 over them run on the vector units, loops from m0 do not
+    m0, m1 = m0 // VECTOR_NODES * VECTOR_NODES, -(-m1 // VECTOR_NODES) * VECTOR_NODES
     g_star, s_star, qx, qy, best, idx, need = (g_star[m0:m1], s_star[m0:m1], qx[m0:m1], qy[m0:m1], best[m0:m1],
                                                idx[m0:m1], need[m0:m1])
     k_lo, k_hi = a, a - 1  # the segments swept: none where the run stands still or is slow across the tile

@@ -297,8 +297,7 @@ def _keep(c, kept, i0, j0, zm, core, runs, ws, rows, counts):
     if core == 0.0:
         m0, m1 = rows[0] * TILE, (rows[1] + 1) * TILE
         g_star[:m0], g_star[m1:], s_star[:m0], s_star[m1:] = np.inf, np.inf, 0.0, 0.0
-        ball_bounds(origin_x, origin_y, grid_mm, i0, j0 + rows[0], TILE, rows[1] - rows[0] + 1, run, floor_mm,
-                    g_star[m0:m1], s_star[m0:m1])
+        ball_bounds(ws.qx[m0:m1], ws.qy[m0:m1], run, floor_mm, g_star[m0:m1], s_star[m0:m1])
         counts[2] += m1 - m0
     else:
         counts[2] += NODES
