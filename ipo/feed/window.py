@@ -68,15 +68,16 @@ class Window:
             self.cap, self.reason, self.corner = self._caps(self._relative(smp), local)
         else:
             # the last two held samples are capped again: a corner where the windows join
-            # also caps the sample before it (limits.CORNER_SHARE)
+            # also caps the sample before it (limits.CORNER_SHARE); they and the new ones are
+            # the end of the joined window (a view, not a second copy of the new samples)
             j = min(2, len(self.samples))
-            joined = Samples.concat([self.samples.tail(len(self.samples) - j), smp])
-            cap, reason, corner = self._caps(self._relative(joined), local)
+            self.samples = Samples.concat([self.samples, smp])
+            cap, reason, corner = self._caps(self._relative(self.samples.tail(len(self.samples) - len(smp) - j)),
+                                             local)
             lower = cap[:j] < self.cap[-j:]
             self.cap[-j:] = np.where(lower, cap[:j], self.cap[-j:])
             self.reason[-j:] = np.where(lower, reason[:j], self.reason[-j:])
             self.corner[-j:] |= corner[:j]
-            self.samples = Samples.concat([self.samples, smp])
             self.cap = np.concatenate([self.cap, cap[j:]])
             self.reason = np.concatenate([self.reason, reason[j:]])
             self.corner = np.concatenate([self.corner, corner[j:]])
