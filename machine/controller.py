@@ -12,10 +12,8 @@ coolant and tool changes. Ctrl-C stops the run cleanly; the result says where.
 """
 from __future__ import annotations
 
-import gc
 import math
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -24,6 +22,7 @@ from ipo.contracts import PeriodBatch
 from ipo.errors import IpoError
 from ipr.entities import Auxiliary, Coolant, GCodeError, Message, ProgramEnd, Spindle, Stop, ToolChange
 from machine.check import CheckedProgram, ProgramRejected, check_program, first_motion_start
+from machine.collector import collector_held
 from machine.drive import Drive, DriveLimits, TravelLimitError
 from machine.servo import ServoModel
 
@@ -74,23 +73,6 @@ class RunResult:
 
 
 
-@contextmanager
-def _collector_held():
-    """Python's cyclic garbage collector held while the check or the run streams the program
-    (and as it was afterwards). Both make millions of short-lived objects (entities, a record
-    per motion, the planner's arrays) that reference counting frees and that form no cycles (a
-    whole check and run of g1_stellabee1 leaves 15-30 unreachable objects, whatever the
-    program's length); the collector would only traverse each batch of them while it is
-    alive, promote it and traverse it again: 0.2 s of stellabee1's 3.3 s of CPU."""
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was_enabled:
-            gc.enable()
-
-
 def _axes(values) -> str:
     return " ".join(f"{float(v):g}" for v in values)
 
@@ -116,7 +98,7 @@ class Controller:
 
     def check(self, path: str | Path) -> CheckedProgram:
         """Interpret and check the whole program (machine.check); raise ProgramRejected with every reason."""
-        with _collector_held():
+        with collector_held():
             program, self.check_s = check_program(path, self.config, self.limits.min_mm, self.limits.max_mm)
         return program
 
@@ -127,7 +109,7 @@ class Controller:
     def run(self, program: CheckedProgram, *, progress: Callable[[int], None] | None = None,
             player=None) -> RunResult:
         """Stream the checked program into a new drive. `player` (machine.realtime) paces it."""
-        with _collector_held():
+        with collector_held():
             return self._run(program, progress, player)
 
     def _run(self, program: CheckedProgram, progress: Callable[[int], None] | None, player) -> RunResult:

@@ -173,10 +173,14 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
             optional_stop, as_json, stock_text, tool, grid_um, teeth, surface_files, planner, grbl_settings,
             linuxcnc_ini):
     """Check FILE, then run it in the virtual controller and print what the machine did."""
-    from machine.controller import Controller, ProgramRejected
-    from machine.report.digest import DigestSink
-    from machine.trace import open_writer
-    from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
+    from machine.collector import collector_held, freeze_loaded
+
+    with collector_held():
+        from machine.controller import Controller, ProgramRejected
+        from machine.report.digest import DigestSink
+        from machine.trace import open_writer
+        from machine.workpiece.cli_run import check_surface_outputs, finish_workpiece, start_workpiece
+        freeze_loaded()
 
     config = apply_planner(load_machine(machine_file), planner, grbl_settings, linuxcnc_ini)
     cutting = check_surface_outputs(surface_files, stock_text, tool, grid_um, config, teeth)
