@@ -331,7 +331,7 @@ def _put_blends(pc: Pieces, slots: np.ndarray, ctrls: list[np.ndarray], nurbs: D
     idx, curves = nurbs.add(list(zip(pc.line[slots].tolist(), pc.feed_mm_s[slots].tolist(), ctrls)))
     pc.kind[slots] = KIND_BLEND
     pc.nurbs[slots] = idx
-    pc.length[slots] = [c.table.s[-1] for c in curves]
+    pc.length[slots] = [c.table.length for c in curves]
     pc.c[slots] = [ctrl[0] for ctrl in ctrls]
 
 
