@@ -28,9 +28,15 @@ SPIRAL_ABS_INCH = 2 * 0.001 * math.sqrt(2)
 SPIRAL_REL = 0.001
 
 
+def unit_tolerances_mm(unit_mm: float) -> tuple[float, float]:
+    """The absolute part of the end point's tolerance, and LinuxCNC's spiral limit, in a unit."""
+    if unit_mm == 1.0:
+        return ARC_TOL_MM, SPIRAL_ABS_MM
+    return ARC_TOL_INCH * unit_mm, SPIRAL_ABS_INCH * unit_mm
+
+
 def radius_tolerance_mm(radius_mm: float, unit_mm: float = 1.0) -> float:
-    absolute = ARC_TOL_MM if unit_mm == 1.0 else ARC_TOL_INCH * unit_mm
-    return max(absolute, ARC_TOL_REL * radius_mm)
+    return max(unit_tolerances_mm(unit_mm)[0], ARC_TOL_REL * radius_mm)
 
 
 def center_from_offsets(start, end, plane: str, center_ab: tuple[float, float], word: int | None,
@@ -43,7 +49,7 @@ def center_from_offsets(start, end, plane: str, center_ab: tuple[float, float], 
     if r0 < 1e-9:
         raise BlockError("E-ARC-RADIUS", "arc centre is at the start point (zero radius)", word)
     err = abs(r1 - r0)
-    limit = SPIRAL_ABS_MM if unit_mm == 1.0 else SPIRAL_ABS_INCH * unit_mm
+    limit = unit_tolerances_mm(unit_mm)[1]
     if err > 100.0 * limit or (err > limit and err / max(r0, r1) > SPIRAL_REL):
         raise BlockError("E-ARC-RADIUS", f"arc end point is {err:.3f} mm off the circle through the start "
                          f"point (radius {r0:.3f} mm; LinuxCNC allows {limit:.4f} mm, or 0.1 % of the "

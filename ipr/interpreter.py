@@ -139,7 +139,7 @@ class Interpreter:
         return self._run_lines(lines, first, memo)
 
     def _run_scanned(self, lines: list[str], first: int) -> int:
-        """A long stretch read at once: its runs of plain G0/G1 lines by ipr.plain_runs, the other
+        """A long stretch read at once: its runs of plain G0..G3 lines by ipr.plain_runs, the other
         lines (and a plain line it hands back) one by one."""
         from ipr import plain_runs   # numba: loaded for long programs only
 
