@@ -42,10 +42,6 @@ def _within(x0, y0, z0, x1, y1, z1, points, n, tol_mm):
     return True
 
 
-def _mergeable(e) -> bool:
-    return type(e) is Line and not e.path.exact_stop and (e.path.merge_tol_mm or 0.0) > 0.0
-
-
 def merge_collinear(entities: Iterable) -> Iterator:
     """The entities with each chain of G1 moves within its Q of one line as that line."""
     chain: list[Line] = []  # the moves merged so far; chain[0].start is where the line starts
@@ -60,7 +56,9 @@ def merge_collinear(entities: Iterable) -> Iterator:
         chain.clear()
 
     for e in entities:
-        if not _mergeable(e):
+        # not mergeable (written out: a function call per entity of every program costs ~10 %
+        # of this loop)
+        if type(e) is not Line or e.path.exact_stop or not (e.path.merge_tol_mm or 0.0) > 0.0:
             if chain:  # most programs have no Q: no generator per entity for an empty chain
                 yield from flush()
             yield e

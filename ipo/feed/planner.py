@@ -116,13 +116,13 @@ class FeedPlanner:
             if tp is Line or tp is Rapid:  # the bulk of any program: keep this path lean
                 if e.start == e.end:
                     continue  # a move to where the machine stands: no motion, no corner
-                if not intake.pending and win.samples is None:
+                if win.samples is None and not intake.pending:  # the window's test first: a slot, no call
                     self._check_start(e)
                 if intake.add_line(e):
                     self._extend(final=False)
                     yield from self._plan(final=False)
             elif isinstance(e, MOTION_TYPES):
-                if not intake.pending and win.samples is None:
+                if win.samples is None and not intake.pending:
                     self._check_start(e)
                 if intake.add(e):
                     self._extend(final=False)
