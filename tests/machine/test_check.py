@@ -1,4 +1,5 @@
-"""machine.check: the check before motion covers everything that will execute and holds nothing of it."""
+"""machine.check: the check before motion covers everything that will execute and holds nothing of it
+past a bound (machine.check.KEEP_UNITS: below it, the run takes the entities the check kept)."""
 from __future__ import annotations
 
 import dataclasses
@@ -8,6 +9,7 @@ import pytest
 
 import ipr
 import ipr.interpretation
+import machine.check
 from ipo.config import default_config
 from ipr.entities import Line
 from machine.check import CheckedProgram
@@ -19,8 +21,9 @@ LOOP = ("G21 G90 G0 X0 Y0 Z0\n#1=0\no1 repeat [{count}]\n  #1=[#1+1]\n  G1 X[#1 
 
 def test_a_loop_is_checked_without_holding_its_moves(tmp_path, monkeypatch):
     # the interpretation hands out batches of BATCH entities: small here, so that 5,000 moves are
-    # many batches and holding them all would show
+    # many batches and holding them all would show; the check keeps at most two batches of them
     monkeypatch.setattr(ipr.interpretation, "BATCH", 256)
+    monkeypatch.setattr(machine.check, "KEEP_UNITS", 256)
     path = tmp_path / "loop.ngc"
     ctl = Controller(default_config())
     path.write_text(LOOP.format(count=10))
@@ -46,7 +49,8 @@ def test_the_run_gets_the_entities_the_check_saw(tmp_path):
     program = Controller(default_config()).check(path)
     reference = ipr.parse_file(path, setup=ipr.Setup.from_machine(default_config()))
     assert list(program.entities) == reference.entities
-    assert list(program.entities) == reference.entities   # every iteration reads the program again
+    assert list(program.entities) == reference.entities   # every iteration gives them all again
+    assert isinstance(program.entities, list)   # a small program: the check kept them
     assert program.motion_count == 11 and program.last_line == 8 and program.rapid_lines == {1, 2, 4, 7}
 
 
