@@ -25,7 +25,6 @@ from numba import njit
 
 from ipo.feed.pieces import BLEND_SPANS
 from ipo.feed.sampling import NurbsTable, blend_tables, nurbs_table
-from ipo.interp.steppers import make_stepper
 from ipo.nurbs.subcurve import sub_curve
 from ipr.entities import Nurbs
 
@@ -76,6 +75,8 @@ class NurbsDriver:
         target = np.minimum(sigma, self.table.length)
         lead = 0.0
         if self.stepper is None:
+            from ipo.interp.steppers import make_stepper   # ~4 ms to load, for programs with a NURBS only
+
             lead = max(-sigma_before, 0.0)
             self.stepper = make_stepper(self.entity, method=self.method, lead_mm=lead, chord_tol_pct=CHORD_TOL_PCT,
                                         max_evals=MAX_CHORD_EVALS, bisect_past_cap=True)

@@ -32,7 +32,6 @@ import numpy as np
 
 from ipo.feed import lookahead as la
 from ipo.config import METHODS, MachineConfig
-from ipo.feed import scurve
 from ipo.feed.limits import CORNER_SHARE, axis_velocity_cap, g2_blend_limits, min_blend_radius_mm, sample_caps
 from ipo.contracts import LIMIT_ACCEL, LIMIT_CURVATURE, LIMIT_PROGRAMMED, PeriodBatch
 from ipo.errors import START, IpoError
@@ -181,6 +180,8 @@ class FeedPlanner:
 
     def _plan(self, *, final: bool) -> Iterator:
         if self.j_axis is not None:
+            from ipo.feed import scurve   # S-curve mode only: its jerk_* modules, ~5 ms to load, stay out of a trapezoid run
+
             yield from scurve.run(self, self._win, self._output, final)
             return
         while self._win.samples is not None and len(self._win.samples) > 1:
