@@ -14,12 +14,13 @@ machine's 1-minute load average beside it: the machine is shared) and the cycle 
 vcnc's controller (default machine, finish_machine.toml for the finishing program) before
 and after with its change, and the feed fluctuation (std/mean of the cutting feed). Blocks
 are counted as written: a G06.2 group is one block per control point plus its closing knot
-blocks.
+blocks, a G2/G3 arc or G1 line written for a run of G1 moves one block (ipo.fit.arcs).
 corpus: the proxy of the issue's hidden-programs median: every G01 program of the corpus
 (../shared/corpus/linuxcnc/g1_*.ngc, read in place) fitted whole at 10 um, its blocks
 before/after and where they go (in groups: 5 blocks of opening and closing each, corners kept
-sharp, double knots where the weights restart, conic spans; kept: blocks outside groups, rapids
-and arcs included; sharp v: the chains' vertices that must stay sharp), and the median ratio over
+sharp, double knots where the weights restart, conic spans; arcs, lines: the G2/G3 and G1 blocks
+written each for a run of G1 moves (ipo.fit.arcs); kept: the other blocks outside groups, rapids
+and the source's arcs included; sharp v: the chains' vertices that must stay sharp), and the median ratio over
 the real CAM finishing programs among them (FINISHING; g1_contour.ngc is a generated circle
 of 10000 chords, shown but not counted).
 blend: the corpus G01 programs that name their own blending tolerance (G64 P) fitted at it:
@@ -125,7 +126,8 @@ def _cycle(text: str, machine: Path | None, tmp: Path, name: str) -> tuple[float
 def conversion_table(quick: bool, cycle: bool = True, jobs: int | None = None) -> None:
     import tempfile
 
-    print("\n== G01/G2/G3 chains -> G06.2 (rational quadratic conic spans, the default), per program and tolerance")
+    print("\n== G01/G2/G3 chains -> G06.2 (rational quadratic conic spans, the default) and G2/G3 arcs and G1 lines for"
+          " runs within T of one, per program and tolerance")
     head = (f"{'program':40s} {'T um':>4s} {'blocks':>15s} {'x':>6s} {'bytes':>17s} {'x':>6s} "
             f"{'max dev um':>10s} {'fit s':>6s} {'load':>5s} {'cycle s, change':>21s} {'fluct %':>13s}")
     print(head)
@@ -152,8 +154,8 @@ def corpus_table(jobs: int | None = None) -> None:
         print(f"  no g1_*.ngc in {CORPUS}: skipped")
         return
     print(f"{'program':24s} {'blocks':>17s} {'x':>6s} {'max dev um':>10s} {'fit s':>6s} {'load':>5s}  "
-          f"{'in groups: open+close':>21s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'kept':>6s} {'sharp v':>7s}"
-          "  in median")
+          f"{'in groups: open+close':>21s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'arcs':>5s} {'lines':>5s} "
+          f"{'kept':>6s} {'sharp v':>7s}  in median")
     ratios = []
     for name in names:
         text = (CORPUS / name).read_bytes().decode("utf-8", "replace")
@@ -168,7 +170,8 @@ def corpus_table(jobs: int | None = None) -> None:
         print(f"{name:24s} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} {ratio:6.2f} "
               f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f}  "
               f"{rep.groups:>8d} x 5 = {overhead:<7d} {rep.sharp_corners:7d} {rep.double_knots:7d} "
-              f"{in_groups - overhead - rep.sharp_corners - rep.double_knots:6d} {rep.blocks_after - in_groups:6d} "
+              f"{in_groups - overhead - rep.sharp_corners - rep.double_knots:6d} {rep.arcs:5d} {rep.lines:5d} "
+              f"{rep.blocks_after - in_groups - rep.arcs - rep.lines:6d} "
               f"{rep.sharp_vertices:7d}  {'yes' if counted else 'no (not CAM finishing)'}", flush=True)
         assert rep.max_deviation_mm <= MEDIAN_TOL_MM, "max deviation above tolerance"
     if ratios:
@@ -231,7 +234,8 @@ def dir_table(directory: Path | None, jobs: int | None = None) -> None:
     print(f"\n== G-code files in {directory}, whole, at {MEDIAN_TOL_MM * 1e3:.0f} um (as vcnc fit --tol-mm "
           f"{MEDIAN_TOL_MM}): your programs' median")
     print(f"{'program':36s} {'blocks':>17s} {'x':>6s} {'max dev um':>10s} {'fit s':>6s} {'load':>5s}  "
-          f"{'groups':>6s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'kept':>6s} {'sharp v':>7s} "
+          f"{'groups':>6s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'arcs':>5s} {'lines':>5s} {'kept':>6s} "
+          f"{'sharp v':>7s} "
           f"{'kept: no saving/refused/off':>27s}")
     ratios = []
     for path in files:
@@ -247,8 +251,9 @@ def dir_table(directory: Path | None, jobs: int | None = None) -> None:
         spans = in_groups - 5 * rep.groups - rep.sharp_corners - rep.double_knots
         print(f"{path.name:36s} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} {ratios[-1]:6.2f} "
               f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f}  "
-              f"{rep.groups:6d} {rep.sharp_corners:7d} {rep.double_knots:7d} {spans:6d} "
-              f"{rep.blocks_after - in_groups:6d} {rep.sharp_vertices:7d} {_kept_why(rep.kept_g01):>27s}", flush=True)
+              f"{rep.groups:6d} {rep.sharp_corners:7d} {rep.double_knots:7d} {spans:6d} {rep.arcs:5d} {rep.lines:5d} "
+              f"{rep.blocks_after - in_groups - rep.arcs - rep.lines:6d} {rep.sharp_vertices:7d} "
+              f"{_kept_why(rep.kept_g01):>27s}", flush=True)
         assert rep.max_deviation_mm <= MEDIAN_TOL_MM, "max deviation above tolerance"
     if ratios:
         print(f"median block ratio over the {len(ratios)} programs: {np.median(ratios):.2f}x (the issue's bar on "

@@ -15,7 +15,11 @@ of degree 2 for each stretch inside a group):
 - opening a group at a move end: +1 (the G06.2 block, control point 0 = where the
   machine is); closing it at a move end: +1 for its last control point, + 3 closing
   knots (+1 where the program needs G1/G2/G3 restored after the chain);
-- a move kept as written, between two move ends outside a group: +1.
+- a move kept as written, between two move ends outside a group: +1;
+- a run of G1 moves of one feed as one G1 line or one G2/G3 arc (ipo.fit.arcs), between two move
+  ends outside a group with no sharp vertex inside: +1 (+1 where it ends the chain as an arc and
+  the program needs G1 restored after it); from each move end, runs are tried ever longer until
+  ONE_MOVE_FAILS lengths in a row fail.
 
 The farthest start of a span into a junction is searched from the one the previous
 junctions reached (doubling steps, then halving), so each junction costs a few span tests,
@@ -34,6 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from ipo.fit.arcs import ARC, NONE, one_move
 from ipo.fit.conic import MAX_SAMPLES, control_point, fitting_rho, load_path
 from ipo.fit.weights import STATE, follow
 
@@ -45,6 +50,8 @@ CORNER_OPTION_RAD = np.radians(0.5)
 LONG_LEG = 1.5  # a segment this much longer than its shorter neighbour gets a junction at its middle  # a vertex that turns more also gets its in/out directions as junctions
 MAX_SPAN_POINTS = 400  # path points inside one span at most
 MAX_FAILS = 8  # spans from the nearest junctions back that may fail before a junction gives up
+MAX_ONE_MOVE_POINTS = 400  # moves one line or arc replaces at most
+ONE_MOVE_FAILS = 3  # longer runs tried after this many lengths in a row are not one move
 INF = 1 << 40
 SLOTS = 6  # junctions per vertex at most (junctions)
 BOTH, ARRIVE, LEAVE = 0, 1, 2  # what spans a junction may take: a sharp corner's sides are one-way
@@ -149,6 +156,16 @@ class Nodes(NamedTuple):
     gap_mm: float
 
 
+class MoveRule(NamedTuple):
+    """Where a run may be one move (ipo.fit.arcs): line_run[i] numbers the run of G1 moves of one feed
+    that the move ending at point i belongs to (-1: the move is an arc, or i is not a move end), axes
+    the plane's (a, b, normal) indices, tol_mm the bound."""
+
+    line_run: np.ndarray
+    axes: np.ndarray
+    tol_mm: float
+
+
 class Found(NamedTuple):
     """Per junction, the cheapest way found to it with a group open (plan_kernel's doc), and the
     kernels' scratch arrays."""
@@ -205,10 +222,36 @@ def _relax_at(g, z, group, q, nodes, found):
 
 
 @njit(cache=True)
-def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost):
+def _one_moves(q, v, rule, sharp, restore_cost, out, out_from, kind, centre):
+    """Runs from move end v as one move each (MoveRule), where they make their end cheaper."""
+    line_run, axes, tol_mm = rule
+    n_pts = q.shape[0]
+    if v + 1 >= n_pts or line_run[v + 1] < 0:
+        return
+    fails = 0
+    w = v + 2
+    while w < n_pts and w - v <= MAX_ONE_MOVE_POINTS and line_run[w] == line_run[v + 1] and not sharp[w - 1]:
+        k = one_move(q, v, w, axes[0], axes[1], axes[2], tol_mm, centre)
+        if k == NONE:
+            fails += 1
+            if fails > ONE_MOVE_FAILS:
+                return
+        else:
+            fails = 0
+            cost = out[v] + 1 + (restore_cost if k == ARC and w == n_pts - 1 else 0)
+            if cost < out[w]:
+                out[w] = cost
+                out_from[w] = -1 - v
+                kind[w] = k
+        w += 1
+
+
+@njit(cache=True)
+def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost, rule):
     """The shortest path of the module doc over the junctions and span rule nodes (Nodes). Returns (out, out_from, ins, ins_from, ctrl, rho, double,
-    state): out[v] the fewest blocks up to move end v with no group open, out_from[v] >= 0 the
-    junction whose group closed there, -1 - e: a move kept from move end e; ins[k] with a group
+    state, kind): out[v] the fewest blocks up to move end v with no group open, out_from[v] >= 0 the
+    junction whose group closed there, -1 - e: from move end e, kept (kind[v] NONE) or as one
+    move (kind[v] STRAIGHT or ARC, ipo.fit.arcs, where rule allows, MoveRule); ins[k] with a group
     open at junction k, ins_from[k] >= 0 the junction its span came from, -1: opened there,
     -2 - z: a corner from junction z; ctrl, rho: the control point and weight of that span;
     double: the span starts with a knot of multiplicity 2 (ipo.fit.weights), one block more;
@@ -218,6 +261,8 @@ def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost):
     n_pts = q.shape[0]
     out = np.full(n_pts, INF, dtype=np.int64)
     out_from = np.full(n_pts, -INF, dtype=np.int64)
+    kind = np.zeros(n_pts, dtype=np.int64)
+    centre = np.empty(3)
     ins = np.full(n_nodes, INF, dtype=np.int64)
     ins_from = np.full(n_nodes, -INF, dtype=np.int64)
     ctrl = np.zeros((n_nodes, 3))
@@ -316,13 +361,16 @@ def plan_kernel(q, nodes, vert, is_end, sharp, restore_cost):
                 if ins[best] + close < out[v]:
                     out[v] = ins[best] + close
                     out_from[v] = best
+                    kind[v] = NONE
                 nxt = v + 1
                 while nxt < n_pts and not is_end[nxt]:
                     nxt += 1
                 if nxt < n_pts and out[v] + 1 < out[nxt]:
                     out[nxt] = out[v] + 1
                     out_from[nxt] = -1 - v
+                    kind[nxt] = NONE
+                _one_moves(q, v, rule, sharp, restore_cost, out, out_from, kind, centre)
             if sharp[v]:
                 lowest = gk
         k = e
-    return out, out_from, ins, ins_from, ctrl, rho, double, state
+    return out, out_from, ins, ins_from, ctrl, rho, double, state, kind

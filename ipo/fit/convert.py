@@ -1,11 +1,13 @@
 """Program -> program: replace chains of G01/G02/G03 moves by G06.2 (or G5.2) groups within a tolerance.
 
 Chains run through corners (ipo.fit.chains). G06.2 (the default) writes rational quadratic conic
-spans with their own knots and weights (ipo.fit.conic_plan, ipo.fit.weights); G5.2, or a degree
+spans with their own knots and weights (ipo.fit.conic_plan, ipo.fit.weights), and runs of G1 moves
+as one G1 line or G2/G3 arc where that costs fewer blocks (ipo.fit.arcs); G5.2, or a degree
 of 3 or more, 001's rational fits on uniform knots (ipo.fit.groups); a sharp corner is a knot of
 multiplicity = degree. The program is interpreted once, line by line, so each entity keeps its
 source line and the modes and offsets in force there; lines outside a fitted piece are copied
-unchanged. The curve as written (rounded) is checked against the tolerance again, and by the
+unchanged. The curve as written (rounded; an arc as the controller's arc geometry makes it) is
+checked against the tolerance again, and a group by the
 controller's own test where the caller hands it in (`walkable`: machine/ does, so that vcnc fit
 never writes a group vcnc run refuses); the moves of a group that fails either check are planned again
 in halves (up to SPLITS times), and a piece that still fails stays G01.
@@ -24,9 +26,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ipo.errors import FIT_SETTINGS, IpoError
+from ipo.fit.arcs import move_text
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains, sub_chain
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain, sharp_of
+from ipo.fit.modal_text import motion_code, restore_cost, restore_motion, restored, with_feed
 from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.written import Frame, coordinate_digits, feed_text, g52_text, group_text, rounding_bound_mm
 from ipr import Setup, parse_line
@@ -37,13 +41,9 @@ from ipr.interpreter import Interpreter
 PURE_LETTERS = frozenset("NGXYZIJKRF")
 PURE_G = frozenset({1.0, 2.0, 3.0})
 DIALECTS = ("g06.2", "g5.2")
-AXIS_LETTERS = frozenset("XYZ")
-# G codes that use axis words without needing a motion mode (they carry their own meaning)
-OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
 REFUSED = "the controller cannot follow the group"  # why a group that fits is kept G1 (walkable said no)
 SPLITS = 3  # a group that fails a check as written is planned again in halves, this many times at most
-_N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
 
 
 @dataclass(slots=True)
@@ -54,7 +54,9 @@ class ConvertReport:
     sharp_vertices: int = 0  # the chains' vertices that must stay sharp (ipo.fit.chains.sharp_vertices)
     feeds_merged: int = 0  # feed changes inside groups (all beyond the machine's reach)
     groups: int = 0
-    moves_replaced: int = 0
+    arcs: int = 0  # G2/G3 blocks written for runs of G1 moves (ipo.fit.arcs)
+    lines: int = 0  # G1 blocks written for runs of G1 moves within tol of one line
+    moves_replaced: int = 0  # by groups, arcs and lines
     kept_g01: list[tuple[int, str]] = field(default_factory=list)  # (source line, why) pieces left G01
     max_deviation_mm: float = 0.0
     fit_time_s: float = 0.0
@@ -82,7 +84,7 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
             if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
                 frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane,
-                                  st.feed_mode == FEED_PER_MINUTE)
+                                  st.feed_mode == FEED_PER_MINUTE, bool(st.arc_absolute))
             entities.extend(out)
             out.clear()
         if interp.done:
@@ -105,49 +107,11 @@ def _pure(text: str) -> bool:
     return True
 
 
-def _needs_motion_mode(lines: list[str], start: int) -> bool:
-    """Does the first line from index `start` on that uses axis words rely on the modal motion?"""
-    for text in lines[start:]:
-        block = parse_line(text)
-        letters = {l for l, _ in block.words}
-        gs = {v for l, v in block.words if l == "G" and isinstance(v, float)}
-        if gs & OWN_AXIS_G:
-            return False
-        if letters & AXIS_LETTERS:
-            return True
-    return False
-
-
-def motion_code(move) -> str:
-    return "G1" if isinstance(move, Line) else ("G3" if move.ccw else "G2")
-
-
-def _with_motion(text: str, code: str) -> str | None:
-    """The same block with an explicit motion code (a G06.2 group leaves no motion mode active);
-    the block itself if it has a G word of its own, None if it has G words but none of motion."""
-    gs = [v for l, v in parse_line(text).words if l == "G"]
-    if gs:
-        return text if set(gs) & OWN_AXIS_G else None
-    m = _N_WORD.match(text)
-    return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
-
-
-def _restored(text: str, code: str, feed: str | None) -> str:
-    return _with_feed(_with_motion(text, code), feed)
-
-
-def _with_feed(text: str, feed: str | None) -> str:
-    """The block with an F word appended where it needs one (a group before it left another feed)."""
-    if feed is None or any(l == "F" for l, _ in parse_line(text).words):
-        return text
-    return f"{text.rstrip()} F{feed}"
-
-
 def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_deg: float = DEFAULT_CORNER_DEG,
                  file: str = "<string>", setup: Setup | None = None, jobs: int | None = None,
                  accel_mm_s2: float = 1000.0, max_feed_mm_s: float = 100.0, reach_mm_s: float | None = None,
-                 dialect: str = "g06.2", walkable: Callable[[Nurbs], str | None] | None = None
-                 ) -> tuple[str, ConvertReport]:
+                 dialect: str = "g06.2", walkable: Callable[[Nurbs], str | None] | None = None,
+                 arcs: bool = True) -> tuple[str, ConvertReport]:
     """The program with its chains fitted within tol_mm, and what was done (jobs: worker processes for the
     fits, default one per core; accel_mm_s2, max_feed_mm_s: the machine's, for the sharp-corner test of
     ipo.fit.chains; reach_mm_s: the fastest path speed its axes reach together (feeds at or above it are one
@@ -155,7 +119,8 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     dialect: "g06.2" (Fanuc, 3-D, knots written, groups through corners) or "g5.2" (LinuxCNC, XY plane at
     one Z, uniform knots, a group per piece); degree: None for the dialect's own (G06.2: 2, conic spans; G5.2: 3);
     walkable: the controller's test of a group as written (None, or why it cannot follow it: machine/ hands in
-    its check, ipo.feed.split.planning_problem); a group it refuses stays as the moves it replaces)."""
+    its check, ipo.feed.split.planning_problem); a group it refuses stays as the moves it replaces); arcs: runs of
+    G1 moves may be written as one G1 line or G2/G3 arc where that costs fewer blocks (G06.2, ipo.fit.arcs)."""
     if dialect not in DIALECTS:
         raise IpoError(FIT_SETTINGS, f"dialect must be one of {', '.join(DIALECTS)}, got {dialect!r}")
     if not tol_mm > 0:
@@ -186,7 +151,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
         chains = [c for c, ok in zip(chains, flat) if ok]
     report.chains = len(chains)
     options = [replace(_options(tol_mm, degree, frames[c.moves[0].line], corner_deg, accel_mm_s2, max_feed_mm_s),
-                       joins=dialect == "g06.2", restore_blocks=_restore_cost(lines, c.moves[-1].line))
+                       joins=dialect == "g06.2", restore_blocks=restore_cost(lines, c.moves[-1].line), arcs=arcs)
                for c in chains]
     report.sharp_vertices = sum(len(sharp_of(c, o)) for c, o in zip(chains, options))
     planner = plan_chain_conic if dialect == "g06.2" and degree == 2 else plan_chain
@@ -200,24 +165,26 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
             break
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
-        new, last_is_group = _convert_chain(chain, spans, groups, lines, frame, report)
+        new, tail = _convert_chain(chain, spans, groups, lines, frame, report)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
         skip.update(m.line for m in chain.moves)
-        if last_is_group:
-            last = chain.moves[-1]
+        last = chain.moves[-1]
+        if tail == GROUP:
             feed = None if last.feed_mm_s == _group_feed(chain, spans[-1]) else feed_text(last.feed_mm_s, frame)
-            _restore_motion(lines, last.line, motion_code(last), feed, after, prefix)
+            restore_motion(lines, last.line, motion_code(last), feed, after, prefix)
+        elif tail != motion_code(last):  # an arc written for the last moves: their feed, another motion
+            restore_motion(lines, last.line, motion_code(last), None, after, prefix)
     report.fit_time_s = time.perf_counter() - t0
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
         if n in replaced:
             new = replaced[n]
             # a chain that starts with a kept move right after a group ending the previous chain
-            out += [_restored(new[0], *prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
+            out += [restored(new[0], *prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
         elif n not in skip:
-            out.append(_restored(raw, *prefix[n]) if n in prefix else raw)
+            out.append(restored(raw, *prefix[n]) if n in prefix else raw)
         out += after.get(n, [])
     result = "\n".join(out)
     report.bytes_after = len(result.encode())
@@ -225,35 +192,12 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     return result, report
 
 
-def _restore_cost(lines: list[str], last: int) -> int:
-    """Blocks _restore_motion adds after a group ending on source line `last`."""
-    if not _needs_motion_mode(lines, last):
-        return 0
-    nxt = lines[last] if last < len(lines) else ""
-    return 0 if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, "G1") is not None else 1
-
-
-def _restore_motion(lines: list[str], last: int, code: str, feed: str | None, after: dict, prefix: dict) -> None:
-    """After a group that ends a chain: the next block that relies on the modal motion gets the code
-    the program had there, on itself where it is the very next block, else as a block of its own;
-    feed: the program's feed there where the group left another (restored the same way, or alone)."""
-    if not _needs_motion_mode(lines, last):
-        if feed is not None:
-            after[last] = [f"F{feed}"]
-        return
-    nxt = lines[last] if last < len(lines) else ""
-    if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and _with_motion(nxt, code) is not None:
-        prefix[last + 1] = (code, feed)
-    else:
-        after[last] = [code if feed is None else f"{code} F{feed}"]
-
-
 def _options(tol_mm: float, degree: int, frame: Frame, corner_deg: float, accel_mm_s2: float,
              max_feed_mm_s: float) -> FitOptions:
     """The fit's own tolerance: T less what rounding the written control points can add (a piece with
     arcs also gives up their chords' sag, ipo.fit.groups)."""
     fit_tol = tol_mm - rounding_bound_mm(coordinate_digits(tol_mm, frame.unit_mm), frame.unit_mm)
-    return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg)
+    return FitOptions(fit_tol, degree, accel_mm_s2, max_feed_mm_s, corner_deg, plane=frame.plane)
 
 
 def _map(fn, *items: list, jobs: int | None) -> list:
@@ -283,10 +227,10 @@ class _Written:
 
 def _written_all(chains: list[Chain], plans: list[list[Span]], frames: list[Frame],
                  how: tuple) -> list[list[_Written | None]]:
-    """Every fitted span written out (None where it is kept), in the worker pool (_written).
+    """Every fitted span and one move written out (None where it is kept), in the worker pool (_written).
     how: (tol_mm, writer, walkable, jobs)."""
     tol_mm, writer, walkable, jobs = how
-    at = [(i, j) for i, spans in enumerate(plans) for j, span in enumerate(spans) if span.fit is not None]
+    at = [(i, j) for i, spans in enumerate(plans) for j, span in enumerate(spans) if not span.kept]
     moves = [chains[i].moves[plans[i][j].first:plans[i][j].last] for i, j in at]
     done = _map(_written, [plans[i][j] for i, j in at], moves, [frames[i] for i, _ in at],
                 [chains[i].sag_mm for i, _ in at], [(tol_mm, writer, walkable)] * len(at), jobs=jobs)
@@ -302,7 +246,12 @@ def _written(span: Span, moves: tuple, frame: Frame, sag_mm: float, how: tuple) 
     dense real programs). how: (tol_mm, writer, walkable)."""
     tol_mm, writer, walkable = how
     feed = _lowest_feed(moves)
-    text, written = writer(span.fit, feed, frame, coordinate_digits(tol_mm, frame.unit_mm))
+    digits = coordinate_digits(tol_mm, frame.unit_mm)
+    if span.move is not None:  # one G1 line or G2/G3 arc: the controller runs it as written
+        block, curve, end_gap_mm = move_text(span.move, frame, digits, moves[0].line, feed)
+        dev = written_deviation_mm(curve, span.data, tol_mm) + end_gap_mm
+        return _Written([block], dev, dev > tol_mm, None)
+    text, written = writer(span.fit, feed, frame, digits)
     sag = sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
     dev = written_deviation_mm(written, span.data, tol_mm - sag) + sag
     refused = None
@@ -338,37 +287,49 @@ def _split_failed(chains: list[Chain], options: list[FitOptions], frames: list[F
     return bool(todo)
 
 
+GROUP = "group"
+
+
 def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None], lines: list[str], frame: Frame,
-                   report: ConvertReport) -> tuple[list[str] | None, bool]:
-    """New text for one chain from its spans and their groups as written (None if it stays as it is), and
-    whether it ends in a group."""
+                   report: ConvertReport) -> tuple[list[str] | None, str | None]:
+    """New text for one chain from its spans and their groups and moves as written (None if it stays as it
+    is), and the motion in force after it: GROUP (none) or a motion code."""
     out: list[str] = []
-    after_group = any_group = False
-    group_feed = 0.0
+    mode: str | None = None  # the motion in force after what was written (GROUP: none)
+    changed = False
+    feed_mm_s = None  # the feed in force where this text has set it (the chain's first block may carry it)
     for span, written in zip(spans, groups):
         moves = chain.moves[span.first:span.last]
         group = _group_for(written, moves[0].line, report) if written is not None else None
         if group is None:
             src = [lines[m.line - 1] for m in moves]
-            if after_group:  # pure blocks: G1/G2/G3 or none; the program's feed if the group wrote another
-                feed = None if moves[0].feed_mm_s == group_feed else feed_text(moves[0].feed_mm_s, frame)
-                src[0] = _restored(src[0], motion_code(moves[0]), feed)
+            if changed and mode != motion_code(moves[0]):  # pure blocks: G1/G2/G3 or none; the program's feed
+                feed = None if moves[0].feed_mm_s == feed_mm_s else feed_text(moves[0].feed_mm_s, frame)
+                src[0] = restored(src[0], motion_code(moves[0]), feed)
             out += src
-            if span.fit is None:
+            if span.kept:
                 report.kept_g01.append((moves[0].line, NO_SAVING))
-            after_group = False
+            mode, feed_mm_s = motion_code(moves[-1]), moves[-1].feed_mm_s
+        elif span.move is not None:
+            same = moves[0].feed_mm_s == feed_mm_s
+            out.append(group[0] if same else with_feed(group[0], feed_text(moves[0].feed_mm_s, frame)))
+            changed = True
+            mode, feed_mm_s = span.move.code, moves[0].feed_mm_s
+            report.arcs += mode != "G1"
+            report.lines += mode == "G1"
+            report.moves_replaced += len(moves)
         else:
             out += group
-            after_group = any_group = True
-            group_feed = _group_feed(chain, span)
+            mode, changed = GROUP, True
+            feed_mm_s = _group_feed(chain, span)
             report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
             report.groups += 1
             report.moves_replaced += len(moves)
             report.sharp_corners += span.corners()
             report.double_knots += span.double_knots
-    if not any_group:
-        return None, False
-    return out, after_group
+    if not changed:
+        return None, None
+    return out, mode
 
 
 def _group_feed(chain: Chain, span: Span) -> float:

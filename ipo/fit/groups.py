@@ -20,6 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ipo.fit.arcs import OneMove
 from ipo.fit.chains import Chain, sharp_vertices, turn_rad
 from ipo.fit.rational import RationalFit
 from ipo.fit.tolerance import MAX_CTRL, FitSettings, fewest_ctrl
@@ -39,11 +40,14 @@ class FitOptions:
     corner_deg: float
     joins: bool = True  # pieces may share a group (G06.2); False: each fitted piece is its own (G5.2)
     restore_blocks: int = 1  # a block restoring G1/G2/G3 after a group that ends the chain (0 or 1)
+    plane: str = "XY"  # the program's plane there (G17/G18/G19): arcs are written in it
+    arcs: bool = True  # runs of G1 moves may be written as one G1 line or G2/G3 arc (ipo.fit.arcs; G06.2 only)
 
 
 @dataclass(frozen=True, slots=True)
 class Span:
-    """Moves first..last-1 of the chain: a fitted curve (fit is not None) or kept as written."""
+    """Moves first..last-1 of the chain: a fitted curve (fit is not None), one G1 line or G2/G3 arc
+    (move is not None, ipo.fit.arcs) or kept as written."""
 
     first: int
     last: int
@@ -51,6 +55,11 @@ class Span:
     data: np.ndarray | None = None  # the path the fit was checked against (polyline, densified)
     deviation_mm: float = 0.0
     double_knots: int = 0  # knots of multiplicity 2 where the curve stays tangent (ipo.fit.weights), not corners
+    move: OneMove | None = None
+
+    @property
+    def kept(self) -> bool:
+        return self.fit is None and self.move is None
 
     def corners(self) -> int:
         """The fit's corners: its inner knots of multiplicity = degree, less the double knots."""

@@ -1,17 +1,20 @@
 """One chain -> spans of `vcnc fit` with rational quadratic groups: the plan of ipo.fit.conic_plan
-walked back into groups (their curves by ipo.fit.weights) and moves kept as written, and each
-data point's parameter on its group's curve (for the checks that use them).
+walked back into groups (their curves by ipo.fit.weights), runs written as one G1 line or G2/G3 arc
+(ipo.fit.arcs) and moves kept as written, and each data point's parameter on its group's curve (for
+the checks that use them).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ipo.fit.arcs import NONE, plan_move
 from ipo.fit.chains import Chain
 from ipo.fit.compiled import foot_params
-from ipo.fit.conic_plan import DEGREE, Nodes, junctions, plan_kernel
+from ipo.fit.conic_plan import DEGREE, MoveRule, Nodes, junctions, plan_kernel
 from ipo.fit.groups import Span, sharp_of
 from ipo.fit.rational import RationalFit, SpanPolynomials
 from ipo.fit.weights import X, spline
+from ipr.entities import PLANE_AXES, Line
 
 TEST_MARGIN = 0.05  # spans are tested this fraction inside the tolerance (the joined curve moves a little)
 GAP_FRACTION = 0.1  # of the tolerance: how far apart two tangent lines of a span may pass (3-D)
@@ -30,7 +33,7 @@ def data_params(fit: RationalFit, data: np.ndarray, brackets: np.ndarray) -> np.
 def _group_items(back: tuple, close_node: int) -> tuple[int, list, list]:
     """Walk a group back from the junction where it closes: its opening vertex, its items in
     order and the path positions of its junctions (start, then each span's end)."""
-    _, _, _, ins_from, ctrl, rho, double, state, pos, pt, vert = back
+    _, _, _, ins_from, ctrl, rho, double, state, _, pos, pt, vert = back
     items, at = [], []
     k = close_node
     while True:
@@ -60,9 +63,12 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     is_end[chain.ends] = True
     tol = opt.tol_mm * (1.0 - TEST_MARGIN) - chain.sag_mm
     nodes = Nodes(cand.pos, cand.point, cand.tangent, cand.role, tol, GAP_FRACTION * opt.tol_mm)
-    result = plan_kernel(chain.points, nodes, cand.vertex, is_end, sharp, opt.restore_blocks)
+    # a run's one move is checked exactly (ipo.fit.arcs) and loses only its centre's rounding as written
+    runs = _line_runs(chain) if opt.arcs else np.full(len(chain.points), -1, dtype=np.int64)
+    rule = MoveRule(runs, np.array(PLANE_AXES[opt.plane], dtype=np.int64), opt.tol_mm)
+    result = plan_kernel(chain.points, nodes, cand.vertex, is_end, sharp, opt.restore_blocks, rule)
     back = result + (cand.pos, cand.point, cand.vertex)
-    out, out_from = result[0], result[1]
+    out, out_from, kind = result[0], result[1], result[8]
     move_at = {int(e): i + 1 for i, e in enumerate(chain.ends)}
     move_at[0] = 0
     spans: list[Span] = []
@@ -71,7 +77,11 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
         f = int(out_from[v])
         if f < 0:
             e = -1 - f
-            spans.append(Span(move_at[e], move_at[v]))
+            if kind[v] == NONE:
+                spans.append(Span(move_at[e], move_at[v]))
+            else:
+                spans.append(Span(move_at[e], move_at[v], data=chain.points[e:v + 1],
+                                  move=plan_move(chain.points, e, v, opt.plane, opt.tol_mm)))
             v = e
             continue
         a, items, at = _group_items(back, f)
@@ -95,10 +105,23 @@ def fit_params(fit: RationalFit, data: np.ndarray, first: int, at: list) -> Rati
     return RationalFit(fit.degree, fit.knots, fit.weights, fit.points, u, fit.rms_history, True)
 
 
+def _line_runs(chain: Chain) -> np.ndarray:
+    """MoveRule.line_run of the chain: runs of G1 moves at one feed, numbered."""
+    runs = np.full(len(chain.points), -1, dtype=np.int64)
+    run, prev = -1, None
+    for m, end in zip(chain.moves, chain.ends):
+        if isinstance(m, Line):
+            if not (isinstance(prev, Line) and prev.feed_mm_s == m.feed_mm_s):
+                run += 1
+            runs[end] = run
+        prev = m
+    return runs
+
+
 def _merge_kept(spans: list[Span]) -> list[Span]:
     out: list[Span] = []
     for s in spans:
-        if out and s.fit is None and out[-1].fit is None:
+        if out and s.kept and out[-1].kept:
             out[-1] = Span(out[-1].first, s.last)
         else:
             out.append(s)

@@ -25,6 +25,7 @@ class Frame:
     offset_mm: tuple[float, float, float]
     plane: str = "XY"
     per_minute: bool = True  # G94 (a G93/G95 block carries its own feed: not fitted)
+    arc_absolute: bool = False  # G90.1: I/J/K are the centre's coordinates; G91.1 (default): from the start
 
 
 def fmt(value: float, digits: int) -> str:

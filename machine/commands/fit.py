@@ -1,9 +1,11 @@
-"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30] [--jobs N] [--compare]`.
+"""`vcnc fit IN.nc -o OUT.nc --tol-mm T [--degree 3] [--corner-deg 30] [--jobs N] [--no-arcs] [--compare]`.
 
 Fits every chain of G1/G2/G3 moves (ipo.fit.chains: corners do not end a chain; sharp
 ones stay sharp inside the curve) with 001's rational B-spline approximation, the
 fewest written blocks within T of the path both ways, and writes the program with
-Fanuc G06.2 groups; everything else is copied. Each group is tabled as the controller's
+Fanuc G06.2 groups, and runs of G1 moves that lie within T of one line or one arc in the
+program's plane as one G1 or G2/G3 block (ipo.fit.arcs) where that costs fewer blocks;
+everything else is copied. Each group is tabled as the controller's
 check tables it (controller_check); one it would refuse stays as the moves it replaces.
 Prints chains, corners, blocks and bytes before/after, the largest deviation and the fit
 time; with --compare also what the user gains on vcnc's controller: cycle time and feed
@@ -48,7 +50,10 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
     lines = [
         f"tolerance        {tol_mm * 1e3:.3f} um (both ways, on the curves as written)",
         f"chains           {rep.chains} (G1/G2/G3 moves without a break; corners do not break them)",
-        f"{dialect.upper() + ' groups':16s} {rep.groups} replacing {rep.moves_replaced} moves",
+        f"{dialect.upper() + ' groups':16s} {rep.groups}",
+        f"G2/G3 arcs       {rep.arcs} and {rep.lines} G1 lines, each written for a run of G1 moves within the"
+        " tolerance of it (in the program's plane; never a full circle, over 180 degrees or a helix)",
+        f"moves replaced   {rep.moves_replaced} (by the groups, arcs and lines)",
         f"corners          {rep.sharp_vertices} vertices must stay sharp (turns over --corner-deg that no rounding"
         " within the tolerance lets the machine follow at their feed)",
         f"                 {rep.sharp_corners} corners inside the groups (knots of multiplicity = degree),"
@@ -90,12 +95,15 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
 @click.option("--dialect", type=click.Choice(["g06.2", "g5.2"]), default="g06.2", show_default=True,
               help="g06.2: Fanuc G06.2 groups (3-D, knots written, through corners); g5.2: LinuxCNC G5.2/G5.3 "
                    "(XY plane at one Z, uniform knots, no knot blocks).")
+@click.option("--arcs/--no-arcs", default=True, show_default=True,
+              help="Write a run of G1 moves within the tolerance of one line or of one arc in the program's plane as "
+                   "one G1 or G2/G3 block where that costs fewer blocks than a group (G06.2 only).")
 @click.option("--compare", "gains", is_flag=True,
               help="Also run both programs in vcnc's controller and print cycle time and feed fluctuation.")
 @click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
 def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: float, jobs: int | None, dialect: str,
-            gains: bool, machine: str | None) -> None:
+            arcs: bool, gains: bool, machine: str | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
@@ -115,7 +123,7 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
         text = f.read().decode("utf-8", "replace")
     try:
         result, report = fit_text(text, tol_mm, config, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
-                                  dialect=dialect)
+                                  dialect=dialect, arcs=arcs)
     except GCodeError as err:
         click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
         sys.exit(1)

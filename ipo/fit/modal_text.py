@@ -1,0 +1,79 @@
+"""The program's text around what vcnc fit writes: the motion mode (G1/G2/G3) and feed a block after a
+group or a written arc relies on, restored on that block or on one of its own.
+
+A G06.2 group leaves no motion mode active and may leave another feed; a G2/G3 arc written for a run of
+G1 moves leaves G2/G3 active. The next block that relies on the modal motion (axis words without a
+motion code of their own) gets the code the program had there.
+"""
+from __future__ import annotations
+
+import re
+
+from ipr import parse_line
+from ipr.entities import Line
+
+AXIS_LETTERS = frozenset("XYZ")
+# G codes that use axis words without needing a motion mode (they carry their own meaning)
+OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
+_N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
+
+
+def needs_motion_mode(lines: list[str], start: int) -> bool:
+    """Does the first line from index `start` on that uses axis words rely on the modal motion?"""
+    for text in lines[start:]:
+        block = parse_line(text)
+        letters = {l for l, _ in block.words}
+        gs = {v for l, v in block.words if l == "G" and isinstance(v, float)}
+        if gs & OWN_AXIS_G:
+            return False
+        if letters & AXIS_LETTERS:
+            return True
+    return False
+
+
+def motion_code(move) -> str:
+    return "G1" if isinstance(move, Line) else ("G3" if move.ccw else "G2")
+
+
+def with_motion(text: str, code: str) -> str | None:
+    """The same block with an explicit motion code (a G06.2 group leaves no motion mode active);
+    the block itself if it has a G word of its own, None if it has G words but none of motion."""
+    gs = [v for l, v in parse_line(text).words if l == "G"]
+    if gs:
+        return text if set(gs) & OWN_AXIS_G else None
+    m = _N_WORD.match(text)
+    return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
+
+
+def restored(text: str, code: str, feed: str | None) -> str:
+    return with_feed(with_motion(text, code), feed)
+
+
+def with_feed(text: str, feed: str | None) -> str:
+    """The block with an F word appended where it needs one (a group before it left another feed)."""
+    if feed is None or any(l == "F" for l, _ in parse_line(text).words):
+        return text
+    return f"{text.rstrip()} F{feed}"
+
+
+def restore_cost(lines: list[str], last: int) -> int:
+    """Blocks restore_motion adds after a group or arc ending on source line `last`."""
+    if not needs_motion_mode(lines, last):
+        return 0
+    nxt = lines[last] if last < len(lines) else ""
+    return 0 if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and with_motion(nxt, "G1") is not None else 1
+
+
+def restore_motion(lines: list[str], last: int, code: str, feed: str | None, after: dict, prefix: dict) -> None:
+    """After a group or written arc that ends a chain: the next block that relies on the modal motion gets the code
+    the program had there, on itself where it is the very next block, else as a block of its own;
+    feed: the program's feed there where the group left another (restored the same way, or alone)."""
+    if not needs_motion_mode(lines, last):
+        if feed is not None:
+            after[last] = [f"F{feed}"]
+        return
+    nxt = lines[last] if last < len(lines) else ""
+    if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and with_motion(nxt, code) is not None:
+        prefix[last + 1] = (code, feed)
+    else:
+        after[last] = [code if feed is None else f"{code} F{feed}"]

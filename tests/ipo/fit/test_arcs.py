@@ -1,0 +1,173 @@
+"""Runs of G1 chords written as one G2/G3 arc or G1 line (ipo.fit.arcs): within the tolerance both ways by
+brute force (the arc sampled by its angle, every point's distance to the polyline), in the program's frame
+(plane, units, G90/G91, offsets, arc-distance mode) as vcnc and LinuxCNC's rs274 read the written blocks,
+and never a full circle, an arc over 180 degrees or a helix."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_fit_chains import _both_ways
+
+from ipr import Setup, parse_text
+from ipr.entities import PLANE_AXES, Arc, Line, Nurbs
+from ipo.fit.arcs import ARC, NONE, STRAIGHT, one_move
+from ipo.fit.convert import convert_text, count_blocks
+
+
+def _segment_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    a, ab = poly[:-1], np.diff(poly, axis=0)
+    t = np.clip(np.einsum("psd,sd->ps", points[:, None] - a[None], ab) / np.einsum("sd,sd->s", ab, ab), 0, 1)
+    return np.linalg.norm(points[:, None] - (a[None] + t[..., None] * ab[None]), axis=2).min(axis=1)
+
+
+def _dense(poly: np.ndarray, parts: int = 10) -> np.ndarray:
+    t = np.linspace(0.0, 1.0, parts, endpoint=False)
+    return np.vstack([(poly[:-1, None] + t[None, :, None] * np.diff(poly, axis=0)[:, None]).reshape(-1, 3), poly[-1:]])
+
+
+def _noisy_run(rng, plane: str, tol: float) -> np.ndarray:
+    """Chords of a circle (or of a line) in the plane, their sagitta up to 1.5 tol, vertices moved off it
+    radially by up to 0, 0.5 or 1.5 tol."""
+    a, b, n = PLANE_AXES[plane]
+    radius = rng.choice([rng.uniform(0.5, 30.0), rng.uniform(500.0, 5000.0), 1e7])
+    sweep = min(rng.uniform(0.05, 3.0), rng.uniform(1.0, 50.0) / radius) * rng.choice([-1.0, 1.0])
+    step = 2.0 * np.arccos(1.0 - rng.uniform(0.05, 1.5) * tol / radius)
+    count = int(np.clip(np.ceil(abs(sweep) / step), 2, 40))
+    ang = rng.uniform(0, 2 * np.pi) + sweep * np.linspace(0.0, 1.0, count + 1)
+    ang[1:-1] += rng.uniform(-0.2, 0.2, count - 1) * sweep / count
+    r = radius + rng.uniform(-1.0, 1.0, len(ang)) * rng.choice([0.0, 0.5, 1.5]) * tol
+    r[0] = r[-1] = radius
+    pts = np.zeros((len(ang), 3))
+    pts[:, a], pts[:, b], pts[:, n] = r * np.cos(ang), r * np.sin(ang), 1.25
+    return pts - pts[0]  # near the origin: a line's radius 1e7 is only how it was made
+
+
+@pytest.mark.parametrize("plane", ["XY", "ZX", "YZ"])
+def test_one_move_is_within_tolerance_both_ways_by_brute_force(plane):
+    tol = 0.01
+    rng = np.random.default_rng({"XY": 1, "ZX": 2, "YZ": 3}[plane])
+    a, b, n = PLANE_AXES[plane]
+    found = {NONE: 0, STRAIGHT: 0, ARC: 0}
+    for _ in range(100):
+        q = _noisy_run(rng, plane, tol)
+        centre = np.full(3, np.nan)
+        kind = one_move(q, 0, len(q) - 1, a, b, n, tol, centre)
+        found[kind] += 1
+        if kind == NONE:
+            continue
+        if kind == STRAIGHT:
+            curve = q[0] + np.linspace(0.0, 1.0, 1001)[:, None] * (q[-1] - q[0])
+        else:
+            r = np.hypot(q[0, a] - centre[a], q[0, b] - centre[b])
+            assert abs(np.hypot(q[-1, a] - centre[a], q[-1, b] - centre[b]) - r) < 1e-9
+            a0 = np.arctan2(q[0, b] - centre[b], q[0, a] - centre[a])
+            sweep = (np.arctan2(q[-1, b] - centre[b], q[-1, a] - centre[a]) - a0 + np.pi) % (2 * np.pi) - np.pi
+            assert abs(sweep) < np.radians(150.0) + 1e-12  # the short arc, never past 180 degrees
+            t = a0 + sweep * np.linspace(0.0, 1.0, 1001)
+            curve = np.empty((len(t), 3))
+            curve[:, a], curve[:, b], curve[:, n] = centre[a] + r * np.cos(t), centre[b] + r * np.sin(t), q[0, n]
+        both = max(_segment_distance(curve, q).max(), _segment_distance(_dense(q), curve).max())
+        # the arc's 1000 chords (at most 3 rad, radius 30 mm; or 50 mm long) miss it by less than 0.05 um
+        assert both <= tol + 5e-5, (kind, both)
+    assert min(found.values()) >= 10, found
+
+
+def _fillet_profile(plane: str, n_chord: int = 12) -> np.ndarray:
+    """A profile in the plane: a line, a 90 degree fillet R5 as chords, a line, a 60 degree fillet R8."""
+    a, b, n = PLANE_AXES[plane]
+    pts = [(0.0, 0.0), (10.0, 0.0)]
+    t = np.linspace(-np.pi / 2, 0.0, n_chord + 1)[1:]
+    pts += [(10.0 + 5.0 * np.cos(u), 5.0 + 5.0 * np.sin(u)) for u in t]
+    pts += [(15.0, 12.0)]
+    t = np.linspace(0.0, np.pi / 3, n_chord + 1)[1:]
+    pts += [(7.0 + 8.0 * np.cos(u), 12.0 + 8.0 * np.sin(u)) for u in t]
+    out = np.zeros((len(pts), 3))
+    out[:, a], out[:, b] = np.array(pts).T
+    out[:, n] = -2.0
+    return out
+
+
+CASES = {
+    # plane, units and distance modes, arc-centre mode, work offset
+    "G18 mm G90 G91.1 G55": ("ZX", "G21 G18 G90 G91.1 G55", 1.0, False),
+    "G17 inch G91 G90.1 G55": ("XY", "G20 G17 G90.1 G55", 25.4, True),
+    "G19 mm G91 G91.1": ("YZ", "G21 G19 G91.1", 1.0, True),
+}
+
+
+def _profile_program(case: str) -> tuple[str, Setup]:
+    plane, head, unit, relative = CASES[case]
+    offset = np.array([100.0, -50.0, 10.0])
+    pts = (_fillet_profile(plane) - offset) / unit if "G55" in head else _fillet_profile(plane) / unit
+    digits = 5 if unit != 1.0 else 4
+    steps = np.diff(pts, axis=0) if relative else pts[1:]
+    words = [" ".join(f"{c}{v:.{digits}f}" for c, v in zip("XYZ", p)) for p in steps]
+    first = " ".join(f"{c}{v:.{digits}f}" for c, v in zip("XYZ", pts[0]))
+    body = ["G91"] if relative else []
+    # after the run (which ends in a fillet), a modal G1 move that cannot join it (a comment)
+    after = "X0.1" if relative else f"X{pts[-1, 0] + 0.1:.{digits}f}"
+    src = "\n".join([head, f"G0 {first}", *body, f"G1 {words[0]} F300", *words[1:], f"{after} (after the run)",
+                      "M2", ""])
+    return src, Setup(work_offsets_mm={"G55": tuple(offset)})
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_arcs_are_written_in_the_programs_frame_within_tolerance(case):
+    tol = 0.01
+    src, setup = _profile_program(case)
+    out, rep = convert_text(src, tol, jobs=1, setup=setup)
+    before, after = parse_text(src, setup=setup).entities, parse_text(out, setup=setup).entities
+    arcs = [e for e in after if isinstance(e, Arc)]
+    assert rep.arcs == len(arcs) == 2 and rep.groups == 0 and not any(isinstance(e, Nurbs) for e in after)
+    assert all(e.plane == CASES[case][0] for e in arcs)
+    assert rep.blocks_after == count_blocks(out) < rep.blocks_before - 20
+    assert _both_ways(before, after) <= tol * 1.001
+    # the same end; the move after the run is still G1 at the run's feed
+    moves, lines = [e for e in after if isinstance(e, (Line, Arc))], [e for e in before if isinstance(e, Line)]
+    assert isinstance(moves[-2], Arc) and np.allclose(moves[-2].end, lines[-2].end, atol=1e-9, rtol=0)
+    assert isinstance(moves[-1], Line) and np.allclose(moves[-1].end, lines[-1].end, atol=1e-9, rtol=0)
+    assert moves[-1].feed_mm_s == lines[-1].feed_mm_s == pytest.approx(300.0 * CASES[case][2] / 60.0)
+
+
+def test_linuxcnc_reads_the_arcs_as_vcnc_does(tmp_path):
+    from rs274 import canon_moves, require_rs274, run_rs274
+
+    require_rs274()
+    for case in CASES:
+        src, setup = _profile_program(case)
+        if "G55" in src:  # rs274 reads work offsets from its own var file: the program sets them instead
+            src = "G10 L2 P2 X100 Y-50 Z10\n" + src
+            setup = Setup()
+        out, rep = convert_text(src, 0.01, jobs=1, setup=setup)
+        assert rep.arcs == 2
+        path = tmp_path / "fitted.ngc"
+        path.write_text(out)
+        theirs = [m for m in canon_moves(run_rs274(path)) if m.kind != "rapid"]
+        ours = [e for e in parse_text(out, setup=setup).entities if isinstance(e, (Line, Arc))]
+        assert [m.kind for m in theirs] == ["arc" if isinstance(e, Arc) else "line" for e in ours], case
+        for m, e in zip(theirs, ours):
+            # rs274 prints the position and the work offset each to 4 decimals
+            assert np.allclose(m.end_mm, e.end, atol=2 * m.tol_mm, rtol=0), case
+            if isinstance(e, Arc):
+                a, b, _ = PLANE_AXES[e.plane]
+                assert m.plane == e.plane and m.rotation == (1 if e.ccw else -1)
+                assert np.allclose(np.array(m.center_mm)[[a, b]], np.array(e.center)[[a, b]], atol=2 * m.tol_mm,
+                                   rtol=0)
+
+
+@pytest.mark.parametrize("sweep_deg, helix", [(300.0, False), (360.0, False), (120.0, True)])
+def test_no_full_circle_no_arc_over_180_degrees_no_helix(sweep_deg, helix):
+    t = np.radians(np.linspace(0.0, sweep_deg, 121))
+    z = np.linspace(0.0, 1.0, len(t)) if helix else np.zeros(len(t))
+    words = [f"X{10 * np.cos(u):.4f} Y{10 * np.sin(u):.4f} Z{zz:.4f}" for u, zz in zip(t, z)]
+    src = "\n".join(["G21 G90 G17", f"G0 {words[0]}", f"G1 {words[1]} F600", *words[2:], "M2", ""])
+    out, rep = convert_text(src, 0.01, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    arcs = [e for e in after if isinstance(e, Arc)]
+    if helix:
+        assert not arcs
+    else:
+        assert len(arcs) >= 2 and all(abs(e.sweep_rad) < np.pi for e in arcs)
+    assert _both_ways(before, after) <= 0.01 * 1.001
