@@ -129,11 +129,18 @@ def test_version_and_debug():
     assert text.startswith("vcnc, version ")
 
 
-def test_python_m_machine_cli_runs_the_cli():
+def test_python_m_machine_cli_runs_the_cli(tmp_path):
+    """A process skips Python's teardown (machine.cli): what the command wrote is all there, and
+    the exit code is the command's, as CliRunner sees them in this process."""
     import subprocess
-    done = subprocess.run([sys.executable, "-m", "machine.cli", "--version"], capture_output=True, text=True,
-                          timeout=60)
-    assert done.returncode == 0 and done.stdout.startswith("vcnc, version")
+    program = ROOT / "programs" / "demo.nc"
+    for args in (["parse", str(program), "--json"], ["parse", str(tmp_path / "nope.nc")], ["--version"]):
+        done = subprocess.run([sys.executable, "-m", "machine.cli", *args], capture_output=True, text=True,
+                              timeout=60)
+        inside = CliRunner().invoke(main, args, prog_name="python -m machine.cli")
+        assert (done.returncode, done.stdout) == (inside.exit_code, inside.stdout), args
+        assert done.stderr.strip().splitlines()[-1:] == inside.stderr.strip().splitlines()[-1:], args
+    assert done.stdout.startswith("vcnc, version")
 
 
 def test_parse_and_run_agree_on_a_missing_file(tmp_path):
