@@ -7,8 +7,9 @@ import math
 import numpy as np
 
 from ipo.nurbs.kernel import arc_length
+from ipr.arc_arrays import arc_sweeps, coordinates
 from ipr.entities import PLANE_AXES, Arc, Dwell, Line, Nurbs, Rapid, group_by_type
-from machine.extents import arc_boxes, arc_sweeps, coordinates
+from machine.extents import arc_boxes
 
 
 def _arc_length_mm(arc) -> float:

@@ -45,6 +45,7 @@ from ipo.feed.arc_corners import arc_corner_blends
 from ipo.feed.analytic import Geometry, frame, point_tangent, points_along_piece
 from ipo.feed.arcs import ArcSpecs, arc_pieces, trimmed_arcs
 from ipo.feed.driver_changes import DriverChanges
+from ipr.arc_arrays import arc_sweeps
 from ipr.entities import PLANE_AXES, Arc, Line, Nurbs, Rapid
 
 KIND_ANALYTIC = 0
@@ -134,9 +135,8 @@ def motion_length(m: Motion, nurbs) -> float:
 
 def _lay_out_arcs(arcs: Pieces, t_in: np.ndarray, t_out: np.ndarray, rows: np.ndarray, ents: list[Arc]) -> None:
     """The arcs ents as rows `rows` of arcs (untrimmed), with their end tangents."""
-    specs = ArcSpecs(np.array([e.start for e in ents], dtype=float), np.array([e.end for e in ents], dtype=float),
-                     np.array([e.center for e in ents], dtype=float), np.array([e.radius_mm for e in ents]),
-                     np.array([e.sweep_rad for e in ents]), np.array([PLANE_AXES[e.plane] for e in ents], dtype=np.int64))
+    g = arc_sweeps(ents)   # radius_mm and sweep_rad of each, at once (~4 us a property call: 40 ms for 9,000 arcs)
+    specs = ArcSpecs(g.start, g.end, g.centre, g.r_start_mm, g.sweep_rad, g.axes)
     bad = arc_pieces(arcs.geometry, arcs.length, t_in, t_out, rows, specs)
     if bad >= 0:
         raise IpoError(ARC_RADIUS, "arc radius is zero (start point on the centre)", ents[bad].line)
