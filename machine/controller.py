@@ -2,7 +2,8 @@
 
 `check` interprets the whole file with every error collected and checks the travel limits
 of the whole path and the NURBS the planner must walk (machine.check: in memory bounded by
-the program's text, whatever the number of executed blocks); any problem refuses the run
+the program's text and machine.check.KEEP_UNITS entities, whatever the number of executed
+blocks); any problem refuses the run
 with every reason and its line, before a single period moves. `run` streams the program
 through the feed stage and interpolators (ipo.feed.planner.plan_periods) into the
 simulated drive, either as fast as possible or paced in real time (machine.realtime),
