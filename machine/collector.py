@@ -27,6 +27,6 @@ def collector_held():
 
 
 def freeze_loaded() -> None:
-    """What the process has made so far lives as long as it does (the modules it loaded): the
-    collector never traverses it again."""
+    """What the process has made so far lives as long as it does (the modules it loaded, the
+    checked program's entities the run takes): the collector never traverses it again."""
     gc.freeze()
