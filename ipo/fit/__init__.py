@@ -16,6 +16,8 @@
   groups and kept moves).
 - `arcs`: a run of G1 moves as one G1 line or G2/G3 arc within the tolerance (exact test), the
   block that writes it and its path as written; the conic plan weighs it against groups.
+- `move_runs`: a stretch of G1 moves outside groups as the fewest such moves, their junctions
+  anywhere on its segments (a shortest path over points at 1/32 of each).
 - `distance`: the two-way distance between a written curve and the path it replaces, bounded
   from above (the check of the curve as written).
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).

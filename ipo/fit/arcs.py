@@ -178,12 +178,22 @@ def _minimax_offset(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm):
 
 @dataclass(frozen=True, slots=True)
 class OneMove:
-    """Moves replaced by one G1 line (centre_mm None) or one G2/G3 arc, from start to end (mm)."""
+    """The polyline `path` (mm) replaced by one G1 line (centre_mm None) or one G2/G3 arc from its first
+    point to its last; vertex_end: the last point is a vertex of the source (written as exactly as the
+    source's numbers), not a point inside one of its segments (ipo.fit.move_runs)."""
 
-    start: np.ndarray
-    end: np.ndarray
+    path: np.ndarray
     plane: str
     centre_mm: np.ndarray | None = None
+    vertex_end: bool = True
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.path[0]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.path[-1]
 
     @property
     def code(self) -> str:
@@ -195,47 +205,52 @@ class OneMove:
         return "G3" if left > 0.0 else "G2"
 
 
-def plan_move(q: np.ndarray, v: int, w: int, plane: str, tol_mm: float) -> OneMove:
-    """The move one_move found for q[v..w] (the plan's choice, found again)."""
+def fit_move(path: np.ndarray, plane: str, tol_mm: float, vertex_end: bool = True) -> OneMove:
+    """The move one_move finds for the polyline path (the plan's choice, found again)."""
     a, b, nrm = PLANE_AXES[plane]
     centre = np.empty(3)
-    kind = one_move(q, v, w, a, b, nrm, tol_mm, centre)
+    kind = one_move(path, 0, len(path) - 1, a, b, nrm, tol_mm, centre)
     if kind == NONE:
-        raise ValueError(f"points {v}..{w} are not one move within {tol_mm} mm")
-    return OneMove(q[v].copy(), q[w].copy(), plane, centre if kind == ARC else None)
+        raise ValueError(f"the {len(path)} points are not one move within {tol_mm} mm")
+    return OneMove(path, plane, centre if kind == ARC else None, vertex_end)
 
 
 def _words(values_mm: np.ndarray, digits: int) -> list[str]:
     return [fmt(float(np.rint(x * 10**digits)) / 10**digits, digits) for x in values_mm]
 
 
-def move_text(move: OneMove, frame: Frame, digits: int, line: int, feed_mm_s: float) -> tuple[str, RationalFit, float]:
-    """The block that writes the move in the program's frame (G90/G91, units, offsets, plane; the
-    end as exact as the source's numbers, an arc's centre in the program's arc-distance mode to
-    `digits` decimals), the path as written as a rational quadratic, and how far the controller's
-    arc may end from that curve's end (the end off the circle through the start, mm)."""
+def move_text(move: OneMove, frame: Frame, digits: int, line: int, feed_mm_s: float,
+              start_mm: np.ndarray) -> tuple[str, RationalFit, float, np.ndarray]:
+    """The block that writes the move from start_mm (where the machine is: the move's start, or the
+    previous move's end as written) in the program's frame (G90/G91, units, offsets, plane; a vertex
+    end as exact as the source's numbers, another end and an arc's centre, in the program's
+    arc-distance mode, to `digits` decimals), the path as written as a rational quadratic, how far the
+    controller's arc may end from that curve's end (the end off the circle through the start, mm),
+    and the end as written (mm)."""
     unit, off = frame.unit_mm, np.array(frame.offset_mm)
-    end = (move.end - off) / unit if frame.absolute else (move.end - move.start) / unit
-    end_words = _words(end, END_DIGITS)
-    start_words = _words((move.start - off) / unit, END_DIGITS) if frame.absolute else ["0"] * 3
+    end = (move.end - off) / unit if frame.absolute else (move.end - start_mm) / unit
+    end_words = _words(end, END_DIGITS if move.vertex_end else digits)
+    start_words = _words((start_mm - off) / unit, END_DIGITS) if frame.absolute else ["0"] * 3
+    a, b, nrm = PLANE_AXES[move.plane]
+    if move.centre_mm is not None:  # an arc stays at its start's normal coordinate (one_move: the path's)
+        end_words[nrm] = start_words[nrm]
     written = np.array([float(v) for v in end_words])
-    end_mm = written * unit + off if frame.absolute else move.start + written * unit
-    axes = [i for i in range(3) if end_words[i] != start_words[i]]
+    end_mm = written * unit + off if frame.absolute else start_mm + written * unit
+    axes = [i for i in range(3) if float(end_words[i]) != float(start_words[i])]
     if move.centre_mm is None:
         text = move.code + "".join(f" {'XYZ'[i]}{end_words[i]}" for i in axes)
-        pts = np.vstack([move.start, 0.5 * (move.start + end_mm), end_mm])
-        return text, _conic(pts, 1.0), 0.0
-    a, b, _ = PLANE_AXES[move.plane]
-    centre = (move.centre_mm - off) / unit if frame.arc_absolute else (move.centre_mm - move.start) / unit
+        pts = np.vstack([start_mm, 0.5 * (start_mm + end_mm), end_mm])
+        return text, _conic(pts, 1.0), 0.0, end_mm
+    centre = (move.centre_mm - off) / unit if frame.arc_absolute else (move.centre_mm - start_mm) / unit
     centre_words = _words(centre, digits)
     text = (move.code + "".join(f" {'XYZ'[i]}{end_words[i]}" for i in axes if i in (a, b))
             + "".join(f" {CENTRE_LETTERS[i]}{centre_words[i]}" for i in (a, b)))
     if any(i not in (a, b) for i in axes):
-        raise ValueError(f"arc from {move.start} to {move.end} leaves the {move.plane} plane")
-    c = np.array([float(v) for v in centre_words]) * unit + (off if frame.arc_absolute else move.start)
-    arc = make_arc(line, tuple(move.start), tuple(end_mm), move.plane, move.code == "G3", feed_mm_s, CONTINUOUS,
+        raise ValueError(f"arc from {start_mm} to {move.end} leaves the {move.plane} plane")
+    c = np.array([float(v) for v in centre_words]) * unit + (off if frame.arc_absolute else start_mm)
+    arc = make_arc(line, tuple(start_mm), tuple(end_mm), move.plane, move.code == "G3", feed_mm_s, CONTINUOUS,
                    center_ab=(float(c[a]), float(c[b])), unit_mm=unit)
-    return text, *arc_curve(arc)
+    return text, *arc_curve(arc), end_mm
 
 
 def arc_curve(arc: Arc) -> tuple[RationalFit, float]:

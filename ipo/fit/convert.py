@@ -247,10 +247,13 @@ def _written(span: Span, moves: tuple, frame: Frame, sag_mm: float, how: tuple) 
     tol_mm, writer, walkable = how
     feed = _lowest_feed(moves)
     digits = coordinate_digits(tol_mm, frame.unit_mm)
-    if span.move is not None:  # one G1 line or G2/G3 arc: the controller runs it as written
-        block, curve, end_gap_mm = move_text(span.move, frame, digits, moves[0].line, feed)
-        dev = written_deviation_mm(curve, span.data, tol_mm) + end_gap_mm
-        return _Written([block], dev, dev > tol_mm, None)
+    if span.one_moves:  # G1 lines and G2/G3 arcs: the controller runs them as written
+        at, blocks, dev = span.one_moves[0].start, [], 0.0
+        for move in span.one_moves:  # each from where the one before it ends as written
+            block, curve, end_gap_mm, at = move_text(move, frame, digits, moves[0].line, feed, at)
+            blocks.append(block)
+            dev = max(dev, written_deviation_mm(curve, move.path, tol_mm) + end_gap_mm)
+        return _Written(blocks, dev, dev > tol_mm, None)
     text, written = writer(span.fit, feed, frame, digits)
     sag = sag_mm if any(isinstance(m, Arc) for m in moves) else 0.0
     dev = written_deviation_mm(written, span.data, tol_mm - sag) + sag
@@ -310,13 +313,14 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
             if span.kept:
                 report.kept_g01.append((moves[0].line, NO_SAVING))
             mode, feed_mm_s = motion_code(moves[-1]), moves[-1].feed_mm_s
-        elif span.move is not None:
+        elif span.one_moves:
             same = moves[0].feed_mm_s == feed_mm_s
-            out.append(group[0] if same else with_feed(group[0], feed_text(moves[0].feed_mm_s, frame)))
+            out += [group[0] if same else with_feed(group[0], feed_text(moves[0].feed_mm_s, frame))] + group[1:]
             changed = True
-            mode, feed_mm_s = span.move.code, moves[0].feed_mm_s
-            report.arcs += mode != "G1"
-            report.lines += mode == "G1"
+            mode, feed_mm_s = span.one_moves[-1].code, moves[0].feed_mm_s
+            arcs = sum(m.centre_mm is not None for m in span.one_moves)
+            report.arcs += arcs
+            report.lines += len(span.one_moves) - arcs
             report.moves_replaced += len(moves)
         else:
             out += group

@@ -46,8 +46,8 @@ class FitOptions:
 
 @dataclass(frozen=True, slots=True)
 class Span:
-    """Moves first..last-1 of the chain: a fitted curve (fit is not None), one G1 line or G2/G3 arc
-    (move is not None, ipo.fit.arcs) or kept as written."""
+    """Moves first..last-1 of the chain: a fitted curve (fit is not None), G1 lines and G2/G3 arcs
+    (one_moves, ipo.fit.arcs) or kept as written."""
 
     first: int
     last: int
@@ -55,11 +55,11 @@ class Span:
     data: np.ndarray | None = None  # the path the fit was checked against (polyline, densified)
     deviation_mm: float = 0.0
     double_knots: int = 0  # knots of multiplicity 2 where the curve stays tangent (ipo.fit.weights), not corners
-    move: OneMove | None = None
+    one_moves: tuple[OneMove, ...] = ()  # each a G1 line or G2/G3 arc, in path order
 
     @property
     def kept(self) -> bool:
-        return self.fit is None and self.move is None
+        return self.fit is None and not self.one_moves
 
     def corners(self) -> int:
         """The fit's corners: its inner knots of multiplicity = degree, less the double knots."""

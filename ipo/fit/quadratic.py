@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ipo.fit.arcs import NONE, plan_move
+from ipo.fit.arcs import NONE, fit_move
 from ipo.fit.chains import Chain
 from ipo.fit.compiled import foot_params
 from ipo.fit.conic_plan import DEGREE, MoveRule, Nodes, junctions, plan_kernel
 from ipo.fit.groups import Span, sharp_of
+from ipo.fit.move_runs import free_junctions
 from ipo.fit.rational import RationalFit, SpanPolynomials
 from ipo.fit.weights import X, spline
 from ipr.entities import PLANE_AXES, Line
@@ -80,8 +81,8 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
             if kind[v] == NONE:
                 spans.append(Span(move_at[e], move_at[v]))
             else:
-                spans.append(Span(move_at[e], move_at[v], data=chain.points[e:v + 1],
-                                  move=plan_move(chain.points, e, v, opt.plane, opt.tol_mm)))
+                move = fit_move(chain.points[e:v + 1].copy(), opt.plane, opt.tol_mm)
+                spans.append(Span(move_at[e], move_at[v], data=move.path, one_moves=(move,)))
             v = e
             continue
         a, items, at = _group_items(back, f)
@@ -91,7 +92,8 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
         doubles = sum(1 for item in items if item[0] == "span" and item[4])
         spans.append(Span(move_at[a], move_at[v], fit_params(fit, data, a, at), data, double_knots=doubles))
         v = a
-    return _merge_kept(spans[::-1])
+    spans = _merge_kept(spans[::-1])
+    return _merge_kept(free_junctions(chain, spans, opt, sharp)) if opt.arcs else spans
 
 
 def fit_params(fit: RationalFit, data: np.ndarray, first: int, at: list) -> RationalFit:

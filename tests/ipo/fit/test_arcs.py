@@ -171,3 +171,4 @@ def test_no_full_circle_no_arc_over_180_degrees_no_helix(sweep_deg, helix):
     else:
         assert len(arcs) >= 2 and all(abs(e.sweep_rad) < np.pi for e in arcs)
     assert _both_ways(before, after) <= 0.01 * 1.001
+

@@ -237,8 +237,12 @@ def test_corpus_chains_within_tolerance(name):
     text = "\n".join(path.read_text().split("\n")[:160]) + "\nM2\n"
     out, rep = convert_text(text, 0.01, jobs=1)
     before, after = parse_text(text).entities, parse_text(out).entities
-    assert rep.arcs >= 10 and rep.lines >= 10  # G18 fillets and lines written as G1 chords
+    assert rep.arcs >= 10 and rep.lines >= 3  # G18 fillets and lines written as G1 chords
     assert _both_ways(before, after) <= 0.01 * 1.001
+    # some of them join inside a segment of the source (ipo.fit.move_runs), not on a vertex
+    vertices = np.array([e.end for e in before if isinstance(e, (Line, Arc))])
+    ends = np.array([e.end for e in after if isinstance(e, (Line, Arc))])
+    assert np.sum(cKDTree(vertices).query(ends)[0] > 1e-6) >= 3
 
 
 def test_g5_2_output_parses_in_vcnc_and_in_linuxcnc_rs274(tmp_path):
