@@ -82,8 +82,12 @@ def bound_plane(qx, qy, run):
     minimum over s of a function convex in (s, q) jointly), so its tangent plane at q lies below it
     everywhere. The slope is h'(rho*) towards q from the line point where G* is reached (Danskin's
     theorem; at an end of the line the same plane still supports G*, since G does not fall into the
-    line there). ok is False where there is no plane: q beyond the tool's reach, or at its rim."""
+    line there). ok is False where there is no plane: q beyond the tool's reach, or at its rim, or a flat end
+    on a line that is not level: its profile jumps at the rim, so the line's part under the disc depends on q
+    and G* falls towards where the disc reaches lower (no slope of the profile at the lowest point says so)."""
     core, corner = run[CORE], run[CORNER]
+    if corner == 0.0 and run[AZ] != run[BZ]:
+        return np.inf, 0.0, 0.0, False
     g, s = envelope(qx, qy, run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ], core, corner)
     px, py = qx - run[AX] - s * (run[BX] - run[AX]), qy - run[AY] - s * (run[BY] - run[AY])
     rho = math.sqrt(px * px + py * py)
