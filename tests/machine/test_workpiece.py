@@ -326,12 +326,13 @@ def test_the_update_is_every_segment_at_every_node(core, corner, monkeypatch):
                 assert max(mine, floor_mm) == pytest.approx(max(theirs, floor_mm), abs=1e-12)
 
 
-def test_a_flat_end_on_sloped_passes_leaves_every_segment_at_every_node():
-    """A flat end mill over a raster of sloped passes, step-over far below its diameter: a tile meets many
-    runs, so the removal prunes most of them by planes below G*. A flat end's profile jumps at its rim, so on
-    a line that is not level no tangent plane bounds G* (the disc reaches lower further along the line): a
-    plane there pruned runs that cut, leaving nodes tens of um high (84f2ca3)."""
-    grid_mm, origin, floor_mm, core = 0.05, (0.0, 0.0), -3.0, 1.0013
+@pytest.mark.parametrize("core, corner", [(1.0013, 0.0), (0.6013, 0.4)])
+def test_sloped_passes_leave_every_segment_at_every_node(core, corner):
+    """A flat (and a bull) end mill over a raster of sloped passes, step-over far below its diameter: a tile
+    meets many runs, so the removal prunes most of them by planes below G*. A flat end's profile jumps at its
+    rim, so on a line that is not level no tangent plane bounds G* (the disc reaches lower further along the
+    line): a plane there pruned runs that cut, leaving nodes tens of um high (84f2ca3)."""
+    grid_mm, origin, floor_mm = 0.05, (0.0, 0.0), -3.0
     passes = []
     for k in range(24):
         x = np.linspace(0.0, 6.0, 61)[:: 1 if k % 2 == 0 else -1]
@@ -340,11 +341,11 @@ def test_a_flat_end_on_sloped_passes_leaves_every_segment_at_every_node():
     lines = np.arange(1, len(path), dtype=np.int32)
     want_z = np.zeros((70, 130), np.float32)
     want_line = np.zeros(want_z.shape, np.int32)
-    _every_segment_at_every_node(want_z, want_line, origin, grid_mm, floor_mm, path, lines, core, 0.0, True)
+    _every_segment_at_every_node(want_z, want_line, origin, grid_mm, floor_mm, path, lines, core, corner, True)
     z = np.zeros(want_z.shape, np.float32)
     line = np.zeros(z.shape, np.int32)
     tile_max = np.zeros((-(-z.shape[0] // TILE), -(-z.shape[1] // TILE)))
-    cut_batch(ZMap(z, line, tile_max, *origin, grid_mm, floor_mm), Batch(path, lines, core, 0.0, True),
+    cut_batch(ZMap(z, line, tile_max, *origin, grid_mm, floor_mm), Batch(path, lines, core, corner, True),
               np.zeros(COUNTS, np.int64), 1)
     assert np.array_equal(z, want_z), f"{int((z != want_z).sum())} nodes, up to {float(np.abs(z - want_z).max()) * 1e3:.1f} um"
 
