@@ -7,8 +7,11 @@ may end inside the chord that leads into the next curve. So each stretch of G1 m
 the plan leaves outside groups is planned again over junctions at every vertex and at every 1/STEPS
 of each segment: a shortest path, one block per piece, each piece (a junction, the vertices inside,
 the next junction) tested by ipo.fit.arcs.one_move, and taken where it is fewer blocks than the plan's.
-A junction reached with no fewer blocks than one up to a segment ahead of it starts no piece (that one
-reaches as far): the search stays near the plan's cost (g1_lhchips4's fit 2.4 -> ~3.5 s).
+Inner junctions are tried only on the NEAR segments each side of an end of the plan's one-move pieces (a
+kept zig-zag leaves nothing to join: 32 junctions on every segment cost g1_stellabee1's first 30000 lines
+11.7 s of fit at 5 um, these 3.3 s, 1.1 s without move_runs; g1_lhchips4 the same blocks), and a
+junction reached with no fewer blocks than one up to a segment ahead of it starts no piece (that one
+reaches as far).
 The pieces partition the path, so the two-way distance of the whole is that of its worst piece; each
 is checked again as written (ipo.fit.convert). A junction inside a segment is written to the fit's
 decimals (ipo.fit.written.coordinate_digits: the rounding its tolerance leaves room for).
@@ -27,6 +30,7 @@ STEPS = 32  # junctions per segment (its start and STEPS - 1 points inside it)
 MAX_INSIDE = 400  # source vertices inside one piece at most
 FAILS = 3  # longer pieces tried after this many vertices in a row end no piece
 INF = 1 << 40
+NEAR = 3  # segments on each side of an end of the plan's one-move pieces whose inner junctions are tried
 # of the tolerance: a junction inside a segment is rounded as written, and the next piece starts there
 ROUNDING_MARGIN = 0.005
 
@@ -57,10 +61,11 @@ def _dominated(cost, k, steps):
 
 
 @njit(cache=True)
-def plan_junctions(q, sharp, axes, tol_mm, steps, restore_cost):
+def plan_junctions(q, sharp, axes, tol_mm, steps, restore_cost, near):
     """Fewest pieces from q[0] to q[-1] (module doc): the cost and the junction each is reached from, per
     junction k (point q[k // steps] + (k % steps) / steps of its segment). sharp: vertices no piece may
-    have inside; restore_cost: blocks after the stretch where it ends in an arc."""
+    have inside; restore_cost: blocks after the stretch where it ends in an arc; near: the segments whose
+    inner junctions are tried (the others: only their start vertex)."""
     n_j = steps * (q.shape[0] - 1) + 1
     cost = np.full(n_j, INF, dtype=np.int64)
     came = np.full(n_j, -1, dtype=np.int64)
@@ -68,13 +73,15 @@ def plan_junctions(q, sharp, axes, tol_mm, steps, restore_cost):
     buf = np.empty((min(q.shape[0], MAX_INSIDE) + 2, 3))
     centre = np.empty(3)
     for k in range(n_j):
-        if cost[k] >= INF or _dominated(cost, k, steps):
+        if cost[k] >= INF or (k % steps and not near[k // steps]) or _dominated(cost, k, steps):
             continue
         fails = 0
         for m in range(k + 1, n_j):
             inside = (m + steps - 1) // steps - 1  # the last vertex before junction m
             if inside > k // steps and (sharp[inside] or inside - k // steps > MAX_INSIDE):
                 break
+            if m % steps and not near[m // steps]:
+                continue
             count = _piece(q, k, m, steps, buf)
             kind = one_move(buf[:count], 0, count - 1, axes[0], axes[1], axes[2], tol_mm, centre)
             if kind == NONE:
@@ -129,7 +136,13 @@ def _replanned(chain, spans: list[Span], first: int, last: int, opt, sharp: np.n
     restore = opt.restore_blocks if last == len(chain.moves) else 0
     axes = np.array(PLANE_AXES[opt.plane], dtype=np.int64)
     tol = opt.tol_mm * (1.0 - ROUNDING_MARGIN)
-    cost, came = plan_junctions(q, sharp[a:b + 1], axes, tol, STEPS, restore)
+    near = np.zeros(len(q), dtype=bool)  # the segments near an end of the plan's one-move pieces
+    for s in spans:
+        if first <= s.first and s.last <= last and s.one_moves:
+            for end in (s.first, s.last):
+                at = (0 if end == 0 else int(chain.ends[end - 1])) - a
+                near[max(at - NEAR, 0):at + NEAR] = True
+    cost, came = plan_junctions(q, sharp[a:b + 1], axes, tol, STEPS, restore, near)
     if cost[-1] >= _blocks(spans, first, last, restore):
         return spans
     pieces, m = [], len(cost) - 1
