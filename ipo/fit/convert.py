@@ -35,7 +35,6 @@ from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.written import Frame, coordinate_digits, feed_text, g52_text, group_text, rounding_bound_mm
 from ipr import Setup, parse_line
 from ipr.entities import Arc, Line, Nurbs
-from ipr.gcodes import FEED_PER_MINUTE
 from ipr.interpreter import Interpreter
 
 PURE_LETTERS = frozenset("NGXYZIJKRF")
@@ -66,6 +65,9 @@ class ConvertReport:
     bytes_after: int = 0
 
 
+NOT_DIRECT = "cutter compensation, a rotated system (G10 L2 R) or G93/G95: written as it is"
+
+
 def count_blocks(text: str) -> int:
     """Lines that carry a word (not blank, not comment-only, not '%')."""
     words = (re.sub(r"\([^)]*\)", "", raw.split(";", 1)[0]).strip() for raw in text.split("\n"))
@@ -84,7 +86,7 @@ def _interpret(lines: list[str], file: str, setup: Setup | None):
             if len(out) == 1 and isinstance(out[0], (Line, Arc)):
                 st = interp.state
                 frames[n] = Frame(float(st.unit), bool(st.absolute), tuple(float(c) for c in st.offset), st.plane,
-                                  st.feed_mode == FEED_PER_MINUTE, bool(st.arc_absolute))
+                                  not st.detour, bool(st.arc_absolute))
             entities.extend(out)
             out.clear()
         if interp.done:
@@ -131,13 +133,15 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
         raise IpoError(FIT_SETTINGS, f"degree must be 1..5 (G06.2 order P 2..6), got {degree}")
     lines = text.split("\n")  # as the IPR numbers lines: "\n" only
     entities, frames, counts = _interpret(lines, file, setup)
-    pure = {n for n in frames if frames[n].per_minute and _pure(lines[n - 1])}
+    pure = {n for n in frames if frames[n].direct and _pure(lines[n - 1])}
     reach = math.sqrt(3.0) * max_feed_mm_s if reach_mm_s is None else (reach_mm_s or None)
 
     def joinable(a, b) -> bool:
         return b.line == a.line + 1 and a.line in pure and b.line in pure and frames[a.line] == frames[b.line]
 
     report = ConvertReport(bytes_before=len(text.encode()), blocks_before=count_blocks(text))
+    report.kept_g01 += [(n, NOT_DIRECT) for n in sorted(frames)
+                        if not frames[n].direct and (n - 1 not in frames or frames[n - 1].direct)]
     replaced: dict[int, list[str]] = {}  # first source line of a chain -> its new text
     skip: set[int] = set()
     prefix: dict[int, str] = {}  # source line -> the motion code it needs after a group

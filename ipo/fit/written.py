@@ -24,7 +24,9 @@ class Frame:
     absolute: bool
     offset_mm: tuple[float, float, float]
     plane: str = "XY"
-    per_minute: bool = True  # G94 (a G93/G95 block carries its own feed: not fitted)
+    # program numbers map to machine mm by unit and offset alone, at a feed per minute: no cutter
+    # compensation, no rotated system (G10 L2 R), no G93/G95 (ipr's detour); other lines are not fitted
+    direct: bool = True
     arc_absolute: bool = False  # G90.1: I/J/K are the centre's coordinates; G91.1 (default): from the start
 
 

@@ -389,3 +389,19 @@ def test_vcnc_fit_never_writes_a_group_the_controller_refuses(tmp_path):
     written = [e for e in parse_text(out).entities if isinstance(e, Nurbs)]
     assert not any(planning_problem(e, gap) for e in written)
     assert len(written) > sum(isinstance(e, Nurbs) for e in parse_text(plain).entities)
+
+
+@pytest.mark.parametrize("frame", [("G10 L2 P1 X10 Y5 Z0 R30", "G54"), ("G10 L1 P1 R2 Z0", "T1 M6", "G41 D1")])
+def test_a_rotated_system_or_cutter_compensation_is_written_as_it_is(frame):
+    """Program numbers in a rotated system (G10 L2 R) or under cutter compensation are not machine
+    positions less an offset: a curve fitted to the machine path and written as program numbers would be
+    rotated (or compensated) a second time. Such lines stay as written, and the report says why."""
+    arc = [f"G1 X{20 * np.cos(a):.4f} Y{20 * np.sin(a):.4f}" for a in np.radians(np.arange(1, 181))]
+    src = "\n".join(["G21 G90 G17", *frame, "G0 X20 Y0 Z1", "G1 Z-1 F600", *arc, "G1 X-25 Y0", "G40", "G0 Z5",
+                     "M2", ""])
+    out, rep = convert_text(src, 0.01)
+    assert out == src
+    assert any("rotated system" in why for _, why in rep.kept_g01)
+    plain = src.replace("\n".join(frame) + "\n", "").replace("G40\n", "")
+    out_plain, _ = convert_text(plain, 0.01)
+    assert count_blocks(out_plain) < count_blocks(plain) / 10   # the same arc, unrotated, is fitted
