@@ -11,8 +11,6 @@ Control lines (O-words, M98, M99) are not executed here: the interpreter stops o
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
-
 from ipr import cutter_comp, nurbs_blocks
 from ipr.block import BlockSpec, analyse
 from ipr.entities import Diagnostic, GCodeError, Message

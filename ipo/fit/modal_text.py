@@ -56,12 +56,16 @@ def with_feed(text: str, feed: str | None) -> str:
     return f"{text.rstrip()} F{feed}"
 
 
+def _next_takes_motion(lines: list[str], last: int) -> bool:
+    """Can the block right after source line `last` carry the restored motion code on itself?
+    (with_motion refuses a block by its own G words, whatever the code.)"""
+    nxt = lines[last] if last < len(lines) else ""
+    return bool({l for l, _ in parse_line(nxt).words} & AXIS_LETTERS) and with_motion(nxt, "G1") is not None
+
+
 def restore_cost(lines: list[str], last: int) -> int:
     """Blocks restore_motion adds after a group or arc ending on source line `last`."""
-    if not needs_motion_mode(lines, last):
-        return 0
-    nxt = lines[last] if last < len(lines) else ""
-    return 0 if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and with_motion(nxt, "G1") is not None else 1
+    return 0 if not needs_motion_mode(lines, last) or _next_takes_motion(lines, last) else 1
 
 
 def restore_motion(lines: list[str], last: int, code: str, feed: str | None, after: dict, prefix: dict) -> None:
@@ -72,8 +76,7 @@ def restore_motion(lines: list[str], last: int, code: str, feed: str | None, aft
         if feed is not None:
             after[last] = [f"F{feed}"]
         return
-    nxt = lines[last] if last < len(lines) else ""
-    if {l for l, _ in parse_line(nxt).words} & AXIS_LETTERS and with_motion(nxt, code) is not None:
+    if _next_takes_motion(lines, last):
         prefix[last + 1] = (code, feed)
     else:
         after[last] = [code if feed is None else f"{code} F{feed}"]

@@ -69,7 +69,7 @@ def plan_chain_conic(chain: Chain, opt) -> list[Span]:
     rule = MoveRule(runs, np.array(PLANE_AXES[opt.plane], dtype=np.int64), opt.tol_mm)
     result = plan_kernel(chain.points, nodes, cand.vertex, is_end, sharp, opt.restore_blocks, rule)
     back = result + (cand.pos, cand.point, cand.vertex)
-    out, out_from, kind = result[0], result[1], result[8]
+    out_from, kind = result[1], result[8]
     move_at = {int(e): i + 1 for i, e in enumerate(chain.ends)}
     move_at[0] = 0
     spans: list[Span] = []

@@ -25,8 +25,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, INV_LL, ROUNDING_MM, ball_bounds,
-                                      ball_planes, bound_line, bound_node, bound_plane, proj, run_row)
+from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, ROUNDING_MM, ball_bounds,
+                                      ball_planes, bound_node, bound_plane, run_row)
 from machine.workpiece.search import may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side

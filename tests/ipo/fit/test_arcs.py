@@ -4,7 +4,6 @@ brute force (the arc sampled by its angle, every point's distance to the polylin
 and never a full circle, an arc over 180 degrees or a helix."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
