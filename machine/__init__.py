@@ -10,6 +10,8 @@
 - `grbl/`: the link to a grbl 1.1 board (NURBS sent as planned G1 segments).
 - `increments/`: the increment protocol, its link and a receiver.
 - `cli`, `commands/`: the `vcnc` command line, one module per subcommand.
+- `client`, `server`: the `vcnc` entry point and `vcnc serve`, the fork server it hands offline
+  commands to (start-up paid once; docs/server.md).
 
 May import: ipo, ipr. Nothing imports machine.
 """

@@ -69,9 +69,26 @@ def command(machine_file):
     """Compile the numba kernels of a run now (once per install), so the first run does not wait."""
     from numba.core import event
 
+    config = load_machine(machine_file)
+    compiled = []
+    listener = type("L", (event.Listener,), {"on_start": lambda _, ev: None,
+                                             "on_end": lambda _, ev: compiled.append(ev)})()
+    t0 = time.perf_counter()
+    with event.install_listener("numba:compile", listener):
+        exercise(config)
+    removed, freed = prune_other_versions(Path(os.environ["NUMBA_CACHE_DIR"]), OLD_CACHE_S)
+    if removed:
+        click.echo(f"vcnc warmup: removed {removed} cache(s) of other vcnc versions ({freed / 1e6:.1f} MB)")
+    click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
+               if compiled else "vcnc warmup: every kernel was already compiled (cached)")
+
+
+def exercise(config) -> None:
+    """Run the warm-up's programs on config (the machine file; the default when None): every
+    kernel they call is compiled, or loaded from the cache (`vcnc serve` keeps them loaded)."""
     import dataclasses
 
-    from ipo.config import METHODS, PLANNERS
+    from ipo.config import METHODS, PLANNERS, default_config
     from ipo.interp.chord_study import study
     from ipr import parse_text
     from ipr.interpreter import SCAN_LINES
@@ -79,12 +96,8 @@ def command(machine_file):
     from machine.controller import Controller
     from machine.report.digest import DigestSink
 
-    config = load_machine(machine_file)
-    compiled = []
-    listener = type("L", (event.Listener,), {"on_start": lambda _, ev: None,
-                                             "on_end": lambda _, ev: compiled.append(ev)})()
-    t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as scratch, event.install_listener("numba:compile", listener):
+    config = config or default_config()
+    with tempfile.TemporaryDirectory() as scratch:
         path = Path(scratch) / "warmup.nc"
         path.write_text(WARMUP_PROGRAM)
         # each interpolator on the machine file's planner, then once on each other planner (the twins)
@@ -105,8 +118,3 @@ def command(machine_file):
         parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
         # `vcnc fit`'s kernels (its spans, deviation bounds and the controller's check of each group)
         fit_text(FIT_WARMUP_PROGRAM, 0.01, config, jobs=1)
-    removed, freed = prune_other_versions(Path(os.environ["NUMBA_CACHE_DIR"]), OLD_CACHE_S)
-    if removed:
-        click.echo(f"vcnc warmup: removed {removed} cache(s) of other vcnc versions ({freed / 1e6:.1f} MB)")
-    click.echo(f"vcnc warmup: {len(compiled)} kernel signature(s) compiled in {time.perf_counter() - t0:.1f} s"
-               if compiled else "vcnc warmup: every kernel was already compiled (cached)")

@@ -1,0 +1,171 @@
+"""`vcnc serve` (machine.server) and the `vcnc` entry point that hands it commands (machine.client).
+
+One server for the module, in its own XDG_RUNTIME_DIR. The reference for every command is the
+command run in this process by click's CliRunner (as without a server, under the same program
+name): stdout, stderr and exit code must be the same bytes; the server's request count says
+whether a command went through it.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from machine import client
+from machine.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+DEMO = str(ROOT / "programs" / "demo.nc")
+PROG = "python -m machine.client"
+# the run's own clock: the only figures that differ between two runs of the same program
+TIMINGS = ("wall_s", "check_s", "realtime_factor")
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    runtime = tmp_path_factory.mktemp("run")
+    env = dict(os.environ, XDG_RUNTIME_DIR=str(runtime))
+    env.pop("VCNC_NO_SERVER", None)
+    server = subprocess.Popen([sys.executable, "-m", "machine.cli", "serve"], cwd=ROOT, env=env,
+                              stdout=subprocess.PIPE, text=True)
+    lines = []
+    for line in server.stdout:
+        lines.append(line)
+        if " ready at " in line:
+            break
+    else:
+        pytest.fail(f"vcnc serve did not start: {''.join(lines)}")
+    yield env
+    server.send_signal(signal.SIGTERM)
+    rest = server.stdout.read()
+    assert server.wait() == 0, rest
+    assert rest.rstrip().endswith("vcnc serve: stopped")
+    assert not list((runtime / "vcnc").iterdir()), "the socket outlives its server"
+
+
+def vcnc(env: dict, *args: str, **extra) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "machine.client", *args], cwd=ROOT, env=env,
+                          capture_output=True, **extra)
+
+
+def status(env: dict) -> dict:
+    """The server's --status, asked over its socket from this process."""
+    path = os.path.join(env["XDG_RUNTIME_DIR"], "vcnc", os.path.basename(client.socket_path()))
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+        sock.connect(path)
+        client.send(sock, {"op": "status"})
+        return client.receive(sock)[0]
+
+
+def served_and_here(env: dict, *args: str) -> tuple[tuple, tuple]:
+    """(exit code, stdout, stderr) of the command through the server (asserted to have gone
+    through it) and run here."""
+    before = status(env)["requests"]
+    through = vcnc(env, *args)
+    assert status(env)["requests"] == before + 1, "the command did not go through the server"
+    here = CliRunner().invoke(main, list(args), prog_name=PROG)
+    return (through.returncode, through.stdout, through.stderr), (here.exit_code, here.stdout_bytes, here.stderr_bytes)
+
+
+def test_parse_table_and_error_the_same_bytes(served, tmp_path):
+    through, here = served_and_here(served, "parse", DEMO)
+    assert through == here and here[0] == 0 and "─" in here[1].decode()
+    bad = tmp_path / "bad.nc"
+    bad.write_text("G21 G90\nG1 X1 F100\nG1 X2 Y\nM2\n")
+    through, here = served_and_here(served, "parse", str(bad))
+    assert through == here and here[0] == 1 and f"{bad}:3:".encode() in here[2]
+    through, here = served_and_here(served, "run", str(tmp_path / "missing.nc"))   # usage: exit 2
+    assert through == here and here[0] == 2 and f"Usage: {PROG} run".encode() in here[2]
+
+
+def test_run_and_interp_the_same_output(served, tmp_path):
+    traces = [tmp_path / "served.npz", tmp_path / "here.npz"]
+    through, here = (served_and_here(served, "run", DEMO, "--json", "--trace", str(t)) for t in traces)
+    through, here = through[0], here[1]
+    assert (through[0], through[2]) == (here[0], here[2]) == (0, b"")
+    a, b = (json.loads(r[1]) for r in (through, here))
+    assert {k: v for k, v in a.items() if k not in TIMINGS} == {k: v for k, v in b.items() if k not in TIMINGS}
+    with np.load(traces[0]) as x, np.load(traces[1]) as y:
+        assert sorted(x.files) == sorted(y.files)
+        for name in x.files:
+            assert x[name].tobytes() == y[name].tobytes(), name
+    through, here = served_and_here(served, "interp", DEMO, "--json")
+    a, b = (json.loads(r[1]) for r in (through, here))
+    assert (through[0], through[2]) == (here[0], here[2]) == (0, b"")
+    assert {k: v for k, v in a.items() if not k.endswith("_s")} == {k: v for k, v in b.items() if not k.endswith("_s")}
+
+
+def test_stale_server_is_ignored_and_says_so_once(served):
+    other = dict(served, NUMBA_OPT="2")   # a setting numba reads when it loads: not the server's
+    before = status(served)["requests"]
+    first, second = vcnc(other, "parse", "--json", DEMO), vcnc(other, "parse", "--json", DEMO)
+    assert status(served)["requests"] == before
+    here = CliRunner().invoke(main, ["parse", "--json", DEMO], prog_name=PROG)
+    assert first.stdout == second.stdout == here.stdout_bytes
+    assert first.stderr.decode() == ("vcnc: the vcnc server (pid %d) runs other code or settings than this vcnc "
+                                     "(environment: NUMBA_OPT None in the server, '2' here); restart `vcnc serve`; "
+                                     "running in this process\n" % status(served)["pid"])
+    assert second.stderr == here.stderr_bytes == b""
+
+
+def test_stream_and_grbl_never_go_through_the_server(served, tmp_path):
+    assert "stream" not in client.FORWARDED and "grbl" not in client.FORWARDED
+    before = status(served)["requests"]
+    for args in (["stream", DEMO, "--port", str(tmp_path / "no-such-port")], ["grbl", "--help"],
+                 ["--debug", "stream", "--help"]):
+        vcnc(served, *args)
+    assert status(served)["requests"] == before
+
+
+def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
+    args = ["run", DEMO, "--realtime", "--json"]   # paced: 2.5 s
+    run = _paced(served, args)
+    run.send_signal(signal.SIGINT)
+    _, err = run.communicate()
+    assert (run.returncode, err.splitlines()[-1]) == (1, b"Aborted!")   # click's KeyboardInterrupt, as in-process
+
+    killed = _paced(served, args)
+    (child,) = status(served)["running"]
+    killed.kill()
+    killed.communicate()
+    for _ in range(1000):   # the server reaps it as soon as it is gone: wait for that, not for a time
+        if not status(served)["running"]:
+            break
+    else:
+        pytest.fail(f"the command (pid {child}) outlived its client")
+    with pytest.raises(ProcessLookupError):
+        os.kill(child, 0)
+
+
+def _paced(env: dict, args: list[str]) -> subprocess.Popen:
+    """`vcnc ARGS` (a --realtime run) once its pacing has begun (its key help on stderr)."""
+    run = subprocess.Popen([sys.executable, "-m", "machine.client", *args], cwd=ROOT, env=env,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert run.stderr.readline().startswith(b"keys: ")
+    return run
+
+
+def test_a_socket_open_to_others_is_refused(tmp_path):
+    folder = tmp_path / "vcnc"
+    folder.mkdir(mode=0o755)
+    folder.chmod(0o755)
+    with pytest.raises(client.Refused, match="open to other users"):
+        client.check_owned(str(folder), stat.S_IFDIR)
+    folder.chmod(0o700)
+    client.check_owned(str(folder), stat.S_IFDIR)
+    with pytest.raises(client.Refused, match="not a socket"):
+        client.check_owned(str(folder), stat.S_IFSOCK)
+
+
+def test_command_name_skips_the_groups_options():
+    assert client.command_name(["--debug", "run", "x.nc"]) == "run"
+    assert client.command_name(["--help"]) is None and client.command_name([]) is None
