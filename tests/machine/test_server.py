@@ -149,7 +149,7 @@ def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
 def _paced(env: dict, args: list[str]) -> subprocess.Popen:
     """`vcnc ARGS` (a --realtime run) once its pacing has begun (its key help on stderr)."""
     run = subprocess.Popen([sys.executable, "-m", "machine.client", *args], cwd=ROOT, env=env,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                           stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     assert run.stderr.readline().startswith(b"keys: ")
     return run
 
@@ -169,3 +169,20 @@ def test_a_socket_open_to_others_is_refused(tmp_path):
 def test_command_name_skips_the_groups_options():
     assert client.command_name(["--debug", "run", "x.nc"]) == "run"
     assert client.command_name(["--help"]) is None and client.command_name([]) is None
+
+
+def test_realtime_keys_from_a_terminal_stay_in_the_users_process(served, tmp_path):
+    """Found running `vcnc serve &` and then `vcnc run --realtime` in one terminal: the served child,
+    of the server's session, failed with EIO setting the terminal up for keys."""
+    program = tmp_path / "short.nc"
+    program.write_text("G21 G90 G1 X1 F6000\nM2\n")   # paced: 10 ms
+    main_fd, terminal_fd = os.openpty()
+    before = status(served)["requests"]
+    try:
+        done = vcnc(served, "run", str(program), "--realtime", "--json", stdin=terminal_fd)
+    finally:
+        os.close(main_fd)
+        os.close(terminal_fd)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["position_mm"] == [1.0, 0.0, 0.0]
+    assert status(served)["requests"] == before
