@@ -2,8 +2,8 @@
 
 Start-up is ~0.38 s of every fresh `vcnc` process (imports 0.2 s, numba's first cached kernel
 ~0.08 s, the others ~0.08 s more), more than the work of a short program. The server imports
-the offline commands and runs `vcnc warmup`'s programs (machine.commands.warmup.exercise), so
-every kernel they use is loaded; then, per request from machine.client, it forks. The child
+the offline commands and machine.plot (matplotlib) and runs `vcnc warmup`'s programs
+(machine.commands.warmup.exercise), so every kernel they use is loaded; then, per request from machine.client, it forks. The child
 takes the client's cwd, environment, umask, argv and stdin/stdout/stderr descriptors, rebuilds
 sys.stdin/stdout/stderr as the client's Python had them, runs the command through
 machine.cli's group as `vcnc` would in-process, runs the exit handlers registered meanwhile,
@@ -38,7 +38,7 @@ import traceback
 from machine import client
 
 COMMAND_MODULES = ("machine.commands.parse", "machine.commands.interp", "machine.commands.run",
-                   "machine.commands.compare", "machine.commands.fit", "rich.console", "rich.table")
+                   "machine.commands.compare", "machine.commands.fit", "machine.plot", "rich.console", "rich.table")
 REQUEST_TIMEOUT_S = 5.0   # a client sends its request at once; a stalled one must not block the server
 
 
@@ -47,7 +47,7 @@ class ServerError(Exception):
 
 
 def warm(log) -> None:
-    """Import the offline commands and load every kernel `vcnc warmup` exercises."""
+    """Import the offline commands and matplotlib, and load every kernel `vcnc warmup` exercises."""
     import importlib
 
     from machine.commands.warmup import exercise

@@ -126,6 +126,14 @@ def test_stream_and_grbl_never_go_through_the_server(served, tmp_path):
     assert status(served)["requests"] == before
 
 
+def test_a_matplotlibrc_in_the_directory_keeps_the_command_here(served, tmp_path):
+    (tmp_path / "matplotlibrc").write_text("lines.linewidth: 3\n")
+    before = status(served)["requests"]
+    here = subprocess.run([sys.executable, "-m", "machine.client", "parse", "--json", DEMO], cwd=tmp_path,
+                          env=served, capture_output=True)
+    assert here.returncode == 0 and status(served)["requests"] == before
+
+
 def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
     args = ["run", DEMO, "--realtime", "--json"]   # paced: 2.5 s
     run = _paced(served, args)
