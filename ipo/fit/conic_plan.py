@@ -19,7 +19,8 @@ of degree 2 for each stretch inside a group):
 - a run of G1 moves of one feed as one G1 line or one G2/G3 arc (ipo.fit.arcs), between two move
   ends outside a group with no sharp vertex inside: +1 (+1 where it ends the chain as an arc and
   the program needs G1 restored after it); from each move end, runs are tried ever longer until
-  ONE_MOVE_FAILS lengths in a row fail.
+  ONE_MOVE_FAILS lengths in a row fail, except to move ends already reached with no more blocks
+  (g1_contour, 10000 chords of one circle: 23 -> 2.5 s of plan at 10 um, the same plan).
 
 The farthest start of a span into a junction is searched from the one the previous
 junctions reached (doubling steps, then halving), so each junction costs a few span tests,
@@ -231,18 +232,19 @@ def _one_moves(q, v, rule, sharp, restore_cost, out, out_from, kind, centre):
     fails = 0
     w = v + 2
     while w < n_pts and w - v <= MAX_ONE_MOVE_POINTS and line_run[w] == line_run[v + 1] and not sharp[w - 1]:
-        k = one_move(q, v, w, axes[0], axes[1], axes[2], tol_mm, centre)
-        if k == NONE:
-            fails += 1
-            if fails > ONE_MOVE_FAILS:
-                return
-        else:
-            fails = 0
-            cost = out[v] + 1 + (restore_cost if k == ARC and w == n_pts - 1 else 0)
-            if cost < out[w]:
-                out[w] = cost
-                out_from[w] = -1 - v
-                kind[w] = k
+        if out[v] + 1 < out[w]:  # else no move from v makes w cheaper: not tested, not counted
+            k = one_move(q, v, w, axes[0], axes[1], axes[2], tol_mm, centre)
+            if k == NONE:
+                fails += 1
+                if fails > ONE_MOVE_FAILS:
+                    return
+            else:
+                fails = 0
+                cost = out[v] + 1 + (restore_cost if k == ARC and w == n_pts - 1 else 0)
+                if cost < out[w]:
+                    out[w] = cost
+                    out_from[w] = -1 - v
+                    kind[w] = k
         w += 1
 
 

@@ -11,13 +11,15 @@ Inner junctions are tried only on the NEAR segments each side of an end of the p
 kept zig-zag leaves nothing to join: 32 junctions on every segment cost g1_stellabee1's first 30000 lines
 11.7 s of fit at 5 um, these 3.3 s, 1.1 s without move_runs; g1_lhchips4 the same blocks), and a
 junction reached with no fewer blocks than one up to a segment ahead of it starts no piece (that one
-reaches as far).
+reaches as far), and a piece to a junction already reached with no more blocks is not tested.
 The pieces partition the path, so the two-way distance of the whole is that of its worst piece; each
 is checked again as written (ipo.fit.convert). A junction inside a segment is written to the fit's
 decimals (ipo.fit.written.coordinate_digits: the rounding its tolerance leaves room for).
 On g1_lhchips4 at 10 um, 3435 -> 3305 written blocks (junctions at 1/8 of a segment: 3343; 1/16: 3310).
 """
 from __future__ import annotations
+
+from bisect import bisect_left, bisect_right
 
 import numpy as np
 from numba import njit
@@ -80,8 +82,8 @@ def plan_junctions(q, sharp, axes, tol_mm, steps, restore_cost, near):
             inside = (m + steps - 1) // steps - 1  # the last vertex before junction m
             if inside > k // steps and (sharp[inside] or inside - k // steps > MAX_INSIDE):
                 break
-            if m % steps and not near[m // steps]:
-                continue
+            if (m % steps and not near[m // steps]) or cost[k] + 1 >= cost[m]:
+                continue  # not a junction, or no piece from k makes m cheaper: not tested, not counted
             count = _piece(q, k, m, steps, buf)
             kind = one_move(buf[:count], 0, count - 1, axes[0], axes[1], axes[2], tol_mm, centre)
             if kind == NONE:
@@ -111,11 +113,34 @@ def free_junctions(chain, spans: list[Span], opt, sharp: np.ndarray) -> list[Spa
             stretches[-1] = (stretches[-1][0], i + 1)
         elif free[i]:
             stretches.append((i, i + 1))
-    out = spans
+    starts = [s.first for s in spans]  # the spans partition the moves, in path order
+    new = []
     for first, last in stretches:
         if last - first >= 2:
-            out = _replanned(chain, out, first, last, opt, sharp)
-    return out
+            local = spans[bisect_right(starts, first) - 1:bisect_left(starts, last)]
+            span = _replanned(chain, local, first, last, opt, sharp)
+            if span is not None:
+                new.append(span)
+    return _spliced(spans, new) if new else spans
+
+
+def _spliced(spans: list[Span], new: list[Span]) -> list[Span]:
+    """The spans with new's (disjoint, in path order) in place of the moves they cover: a kept span is cut
+    at them, any other that they cover dropped (one pass: a chain may hold thousands of stretches)."""
+    out, k = [], 0
+    for s in spans:
+        while k < len(new) and new[k].last <= s.first:
+            k += 1
+        lo, j, covered = s.first, k, False
+        while j < len(new) and new[j].first < s.last:
+            if s.kept and new[j].first > lo:
+                out.append(Span(lo, new[j].first))
+            lo, j, covered = max(lo, new[j].last), j + 1, True
+        if s.kept and lo < s.last:
+            out.append(Span(lo, s.last))
+        elif not s.kept and not covered:
+            out.append(s)
+    return sorted(out + new, key=lambda s: s.first)
 
 
 def _blocks(spans: list[Span], first: int, last: int, restore: int) -> int:
@@ -129,7 +154,9 @@ def _blocks(spans: list[Span], first: int, last: int, restore: int) -> int:
     return count
 
 
-def _replanned(chain, spans: list[Span], first: int, last: int, opt, sharp: np.ndarray) -> list[Span]:
+def _replanned(chain, spans: list[Span], first: int, last: int, opt, sharp: np.ndarray) -> Span | None:
+    """Moves first..last-1 (a stretch; spans: those of the plan that meet it) as one span of one moves
+    over free junctions, or None where that is no fewer blocks than the plan's."""
     a = 0 if first == 0 else int(chain.ends[first - 1])
     b = int(chain.ends[last - 1])
     q = np.ascontiguousarray(chain.points[a:b + 1])
@@ -144,7 +171,7 @@ def _replanned(chain, spans: list[Span], first: int, last: int, opt, sharp: np.n
                 near[max(at - NEAR, 0):at + NEAR] = True
     cost, came = plan_junctions(q, sharp[a:b + 1], axes, tol, STEPS, restore, near)
     if cost[-1] >= _blocks(spans, first, last, restore):
-        return spans
+        return None
     pieces, m = [], len(cost) - 1
     buf = np.empty((len(q) + 2, 3))
     while m > 0:
@@ -152,11 +179,4 @@ def _replanned(chain, spans: list[Span], first: int, last: int, opt, sharp: np.n
         count = _piece(q, k, m, STEPS, buf)
         pieces.append(fit_move(buf[:count].copy(), opt.plane, tol, vertex_end=m % STEPS == 0))
         m = k
-    out = []
-    for s in spans:  # the spans outside moves first..last, a kept one cut at them
-        if s.kept:
-            out += [Span(lo, hi) for lo, hi in ((s.first, min(s.last, first)), (max(s.first, last), s.last)) if hi > lo]
-        elif s.last <= first or s.first >= last:
-            out.append(s)
-    out.append(Span(first, last, data=q, one_moves=tuple(pieces[::-1])))
-    return sorted(out, key=lambda s: s.first)
+    return Span(first, last, data=q, one_moves=tuple(pieces[::-1]))
