@@ -16,7 +16,7 @@ of degree 2 for each stretch inside a group):
   machine is); closing it at a move end: +1 for its last control point, + 3 closing
   knots (+1 where the program needs G1/G2/G3 restored after the chain);
 - a move kept as written, between two move ends outside a group: +1;
-- a run of G1 moves of one feed as one G1 line or one G2/G3 arc (ipo.fit.arcs), between two move
+- a run of G1 moves as one G1 line or one G2/G3 arc (ipo.fit.arcs), between two move
   ends outside a group with no sharp vertex inside: +1 (+1 where it ends the chain as an arc and
   the program needs G1 restored after it); from each move end, runs are tried ever longer until
   ONE_MOVE_FAILS lengths in a row fail, except to move ends already reached with no more blocks
@@ -158,7 +158,7 @@ class Nodes(NamedTuple):
 
 
 class MoveRule(NamedTuple):
-    """Where a run may be one move (ipo.fit.arcs): line_run[i] numbers the run of G1 moves of one feed
+    """Where a run may be one move (ipo.fit.arcs): line_run[i] numbers the run of G1 moves
     that the move ending at point i belongs to (-1: the move is an arc, or i is not a move end), axes
     the plane's (a, b, normal) indices, tol_mm the bound."""
 

@@ -169,17 +169,15 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
             break
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
-        new, tail = _convert_chain(chain, spans, groups, lines, frame, report)
+        new, tail, tail_feed_mm_s = _convert_chain(chain, spans, groups, lines, frame, report)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
         skip.update(m.line for m in chain.moves)
         last = chain.moves[-1]
-        if tail == GROUP:
-            feed = None if last.feed_mm_s == _group_feed(chain, spans[-1]) else feed_text(last.feed_mm_s, frame)
+        feed = None if last.feed_mm_s == tail_feed_mm_s else feed_text(last.feed_mm_s, frame)
+        if tail != motion_code(last) or feed is not None:  # a group, an arc, or moves at the lowest feed
             restore_motion(lines, last.line, motion_code(last), feed, after, prefix)
-        elif tail != motion_code(last):  # an arc written for the last moves: their feed, another motion
-            restore_motion(lines, last.line, motion_code(last), None, after, prefix)
     report.fit_time_s = time.perf_counter() - t0
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
@@ -298,9 +296,11 @@ GROUP = "group"
 
 
 def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None], lines: list[str], frame: Frame,
-                   report: ConvertReport) -> tuple[list[str] | None, str | None]:
+                   report: ConvertReport) -> tuple[list[str] | None, str | None, float | None]:
     """New text for one chain from its spans and their groups and moves as written (None if it stays as it
-    is), and the motion in force after it: GROUP (none) or a motion code."""
+    is), the motion in force after it: GROUP (none) or a motion code, and the feed (mm/s) in force after it.
+    Groups and moves written for runs of G1 moves take the lowest feed of the moves they replace (feeds
+    differ in a chain only beyond the machine's reach); a kept move after them gets its own back."""
     out: list[str] = []
     mode: str | None = None  # the motion in force after what was written (GROUP: none)
     changed = False
@@ -313,15 +313,18 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
             if changed and mode != motion_code(moves[0]):  # pure blocks: G1/G2/G3 or none; the program's feed
                 feed = None if moves[0].feed_mm_s == feed_mm_s else feed_text(moves[0].feed_mm_s, frame)
                 src[0] = restored(src[0], motion_code(moves[0]), feed)
+            elif changed and moves[0].feed_mm_s != feed_mm_s:
+                src[0] = with_feed(src[0], feed_text(moves[0].feed_mm_s, frame))
             out += src
             if span.kept:
                 report.kept_g01.append((moves[0].line, NO_SAVING))
             mode, feed_mm_s = motion_code(moves[-1]), moves[-1].feed_mm_s
         elif span.one_moves:
-            same = moves[0].feed_mm_s == feed_mm_s
-            out += [group[0] if same else with_feed(group[0], feed_text(moves[0].feed_mm_s, frame))] + group[1:]
+            feed = _lowest_feed(moves)
+            out += [group[0] if feed == feed_mm_s else with_feed(group[0], feed_text(feed, frame))] + group[1:]
             changed = True
-            mode, feed_mm_s = span.one_moves[-1].code, moves[0].feed_mm_s
+            mode, feed_mm_s = span.one_moves[-1].code, feed
+            report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
             arcs = sum(m.centre_mm is not None for m in span.one_moves)
             report.arcs += arcs
             report.lines += len(span.one_moves) - arcs
@@ -329,19 +332,15 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
         else:
             out += group
             mode, changed = GROUP, True
-            feed_mm_s = _group_feed(chain, span)
+            feed_mm_s = _lowest_feed(moves)
             report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
             report.groups += 1
             report.moves_replaced += len(moves)
             report.sharp_corners += span.corners()
             report.double_knots += span.double_knots
     if not changed:
-        return None, None
-    return out, mode
-
-
-def _group_feed(chain: Chain, span: Span) -> float:
-    return _lowest_feed(chain.moves[span.first:span.last])
+        return None, None, None
+    return out, mode, feed_mm_s
 
 
 def _lowest_feed(moves) -> float:

@@ -3,7 +3,7 @@ its segments.
 
 The plan (ipo.fit.conic_plan) joins runs written as one move (ipo.fit.arcs) at the source's vertices.
 Between two blocks the fit writes, though, the junction may lie anywhere on the path: a fillet's arc
-may end inside the chord that leads into the next curve. So each stretch of G1 moves at one feed that
+may end inside the chord that leads into the next curve. So each stretch of G1 moves that
 the plan leaves outside groups is planned again over junctions at every vertex and at every 1/STEPS
 of each segment: a shortest path, one block per piece, each piece (a junction, the vertices inside,
 the next junction) tested by ipo.fit.arcs.one_move, and taken where it is fewer blocks than the plan's.
@@ -100,16 +100,16 @@ def plan_junctions(q, sharp, axes, tol_mm, steps, restore_cost, near):
 
 
 def free_junctions(chain, spans: list[Span], opt, sharp: np.ndarray) -> list[Span]:
-    """The plan's spans with each stretch of G1 moves at one feed outside groups planned again (module
+    """The plan's spans with each stretch of G1 moves outside groups planned again (module
     doc) where that saves blocks. sharp: the chain's sharp vertices (bool per point); opt: FitOptions."""
     grouped = np.zeros(len(chain.moves), dtype=bool)
     for s in spans:
         if s.fit is not None:
             grouped[s.first:s.last] = True
     free = [isinstance(m, Line) and not g for m, g in zip(chain.moves, grouped)]
-    stretches = []  # (first, last) move indices: runs of free G1 moves at one feed
+    stretches = []  # (first, last) move indices: runs of free G1 moves (whatever their feeds: quadratic._line_runs)
     for i, m in enumerate(chain.moves):
-        if free[i] and i > 0 and free[i - 1] and chain.moves[i - 1].feed_mm_s == m.feed_mm_s:
+        if free[i] and i > 0 and free[i - 1]:
             stretches[-1] = (stretches[-1][0], i + 1)
         elif free[i]:
             stretches.append((i, i + 1))

@@ -108,12 +108,14 @@ def fit_params(fit: RationalFit, data: np.ndarray, first: int, at: list) -> Rati
 
 
 def _line_runs(chain: Chain) -> np.ndarray:
-    """MoveRule.line_run of the chain: runs of G1 moves at one feed, numbered."""
+    """MoveRule.line_run of the chain: runs of G1 moves, numbered. A chain's feeds differ only where all are
+    beyond the machine's reach (ipo.fit.chains.same_feed): a run may cross them, as a group does, and is
+    written at the lowest (ipo.fit.convert)."""
     runs = np.full(len(chain.points), -1, dtype=np.int64)
     run, prev = -1, None
     for m, end in zip(chain.moves, chain.ends):
         if isinstance(m, Line):
-            if not (isinstance(prev, Line) and prev.feed_mm_s == m.feed_mm_s):
+            if not isinstance(prev, Line):
                 run += 1
             runs[end] = run
         prev = m

@@ -171,3 +171,49 @@ def test_no_full_circle_no_arc_over_180_degrees_no_helix(sweep_deg, helix):
         assert len(arcs) >= 2 and all(abs(e.sweep_rad) < np.pi for e in arcs)
     assert _both_ways(before, after) <= 0.01 * 1.001
 
+
+
+def _mixed_feed_program(tail: bool) -> tuple[str, np.ndarray, list[float]]:
+    """The XY fillet profile with its feed switching between two beyond the machine's reach every 3 moves;
+    tail: then a zig-zag of single moves (kept as written); a modal G1 move after the chain."""
+    pts = _fillet_profile("XY")
+    if tail:
+        pts = np.vstack([pts, pts[-1] + [-6.0, 0.0, 0.0], pts[-1] + [-6.0, -4.0, 0.0], pts[-1] + [-10.0, -4.5, 0.0]])
+    feeds = [600000.0 if (i // 3) % 2 else 900000.0 for i in range(len(pts) - 1)]
+    words, prev = [], None
+    for p, f in zip(pts[1:], feeds):
+        words.append(f"X{p[0]:.4f} Y{p[1]:.4f} Z{p[2]:.4f}" + (f" F{f:.0f}" if f != prev else ""))
+        prev = f
+    src = "\n".join(["G21 G17 G90", f"G0 X{pts[0, 0]:.4f} Y{pts[0, 1]:.4f} Z{pts[0, 2]:.4f}", f"G1 {words[0]}",
+                     *words[1:], "X0 (after the run)", "M2", ""])
+    return src, pts, feeds
+
+
+def _position(p: np.ndarray, pts: np.ndarray) -> float:
+    """Where p lies on the polyline pts: vertex index + fraction of the segment after it."""
+    best, at = np.inf, 0.0
+    for i in range(len(pts) - 1):
+        d = pts[i + 1] - pts[i]
+        f = float(np.clip(np.dot(p - pts[i], d) / np.dot(d, d), 0.0, 1.0))
+        gap = np.linalg.norm(pts[i] + f * d - p)
+        if gap < best - 1e-9:
+            best, at = gap, i + f
+    assert best < 1e-3
+    return float(round(at)) if abs(at - round(at)) < 1e-6 else at
+
+
+@pytest.mark.parametrize("tail", [True, False])
+def test_a_run_crosses_feeds_beyond_the_machines_reach_at_the_lowest(tail):
+    """Feeds a chain merges (all beyond the machine's reach) do not split a run: each written move takes
+    the lowest feed of the source moves it covers, and every move after it gets the program's own back."""
+    src, pts, feeds = _mixed_feed_program(tail)
+    out, rep = convert_text(src, 0.01, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    assert rep.arcs == 2 and rep.groups == 0 and rep.feeds_merged > 0
+    assert _both_ways(before, after) <= 0.01 * 1.001
+    moves = [e for e in after if isinstance(e, (Line, Arc))]
+    for e in moves[:-1]:  # the source moves it covers: those ending past its start, starting before its end
+        lo, hi = _position(np.array(e.start), pts), _position(np.array(e.end), pts)
+        covered = feeds[int(np.floor(lo)):int(np.ceil(hi))]
+        assert e.feed_mm_s == pytest.approx(min(covered) / 60.0), e
+    assert moves[-1].feed_mm_s == pytest.approx(feeds[-1] / 60.0)  # the modal move after the chain
