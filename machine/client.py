@@ -14,7 +14,6 @@ The command runs here, exactly as without a server, when:
 - the current directory holds a `matplotlibrc` (the server's matplotlib read its own directory's);
 - it is not an offline command (FORWARDED): `stream` and `grbl` drive a board and always run in
   the process the user started, which the user can Ctrl-C; `serve`, `warmup`, help and version too;
-- it reads keys from the user's terminal (`run --realtime` with a terminal on stdin);
 - no server of this install listens (its socket: `socket_path()`);
 - the socket or its directory is not the user's own (said on stderr);
 - the server runs other code or settings: its key (`code_key()`) differs from this process's
@@ -247,17 +246,9 @@ def run_served(args: list[str]) -> int | None:
     return os.waitstatus_to_exitcode(status)
 
 
-def reads_the_terminal(args: list[str]) -> bool:
-    """Whether the command takes keys from a terminal on stdin (`run --realtime`: hold, override,
-    stop). Only a process of the terminal's own session may: a server's child is of another one, and
-    gets EIO, or stops on SIGTTOU where the server was started from that terminal in the background."""
-    return "--realtime" in args and os.isatty(0)
-
-
 def main() -> None:
     args = sys.argv[1:]
-    if (os.environ.get("VCNC_NO_SERVER", "") in ("", "0") and command_name(args) in FORWARDED
-            and not reads_the_terminal(args)):
+    if os.environ.get("VCNC_NO_SERVER", "") in ("", "0") and command_name(args) in FORWARDED:
         code = run_served(args)
         if code is not None:
             sys.stdout.flush()

@@ -259,6 +259,11 @@ def _kill(pid: int, signum: int) -> None:
 
 def run_child(request: dict, fds: list[int]) -> None:
     """In the forked child: become the client's process for its command, run it, exit."""
+    # A session of its own, without a controlling terminal: the server's may be the user's terminal
+    # (`vcnc serve &`), whose job control would stop the child (SIGTTIN, SIGTTOU) or fail it (EIO)
+    # when it reads the client's terminal or sets it up for keys (an M0 prompt, `run --realtime`),
+    # and whose Ctrl-C would reach it.
+    os.setsid()
     for signum in (signal.SIGCHLD, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)

@@ -143,6 +143,7 @@ def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
 
     killed = _paced(served, args)
     (child,) = status(served)["running"]
+    assert os.getsid(child) == child   # its own session: the server's terminal's job control is not its
     killed.kill()
     killed.communicate()
     for _ in range(1000):   # the server reaps it as soon as it is gone: wait for that, not for a time
@@ -179,9 +180,10 @@ def test_command_name_skips_the_groups_options():
     assert client.command_name(["--help"]) is None and client.command_name([]) is None
 
 
-def test_realtime_keys_from_a_terminal_stay_in_the_users_process(served, tmp_path):
+def test_realtime_keys_from_a_terminal_through_the_server(served, tmp_path):
     """Found running `vcnc serve &` and then `vcnc run --realtime` in one terminal: the served child,
-    of the server's session, failed with EIO setting the terminal up for keys."""
+    of the server's session, failed with EIO setting the terminal up for keys (now it has a session
+    of its own: the Ctrl-C test checks it)."""
     program = tmp_path / "short.nc"
     program.write_text("G21 G90 G1 X1 F6000\nM2\n")   # paced: 10 ms
     main_fd, terminal_fd = os.openpty()
@@ -193,4 +195,4 @@ def test_realtime_keys_from_a_terminal_stay_in_the_users_process(served, tmp_pat
         os.close(terminal_fd)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["position_mm"] == [1.0, 0.0, 0.0]
-    assert status(served)["requests"] == before
+    assert status(served)["requests"] == before + 1
