@@ -194,6 +194,10 @@ def run_served(args: list[str]) -> int | None:
     import signal
     import socket
 
+    try:
+        cwd = os.getcwd()
+    except FileNotFoundError:   # this directory was removed: in-process, the command says what that does
+        return None
     stdio = _stdio()
     # matplotlib (loaded in the server) read its settings from the server's directory; a
     # matplotlibrc in this one is read first by an in-process command
@@ -214,7 +218,7 @@ def run_served(args: list[str]) -> int | None:
     os.umask(umask)
     try:
         send(sock, {"op": "run", "key": code_key(), "argv": sys.argv[:1] + args, "prog_name": program_name(),
-                    "cwd": os.getcwd(), "env": dict(os.environ), "umask": umask, "stdio": stdio}, (0, 1, 2))
+                    "cwd": cwd, "env": dict(os.environ), "umask": umask, "stdio": stdio}, (0, 1, 2))
         reply, _ = receive(sock)
     except OSError:   # the server went away before it forked: nothing ran
         reply = None

@@ -14,6 +14,7 @@ import socket
 import stat
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -138,19 +139,25 @@ def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
     args = ["run", DEMO, "--realtime", "--json"]   # paced: 2.5 s
     run = _paced(served, args)
     run.send_signal(signal.SIGINT)
-    _, err = run.communicate()
-    assert (run.returncode, err.splitlines()[-1]) == (1, b"Aborted!")   # click's KeyboardInterrupt, as in-process
+    out, err = run.communicate()
+    # as in-process: the controller's loop ends the run "interrupted" (exit 130, its summary printed);
+    # before the loop has begun, click's KeyboardInterrupt: "Aborted!", exit 1
+    if run.returncode == 130:
+        assert json.loads(out)["state"] == "interrupted"
+    else:
+        assert (run.returncode, err.splitlines()[-1]) == (1, b"Aborted!")
 
     killed = _paced(served, args)
     (child,) = status(served)["running"]
     assert os.getsid(child) == child   # its own session: the server's terminal's job control is not its
     killed.kill()
     killed.communicate()
-    for _ in range(1000):   # the server reaps it as soon as it is gone: wait for that, not for a time
-        if not status(served)["running"]:
-            break
-    else:
-        pytest.fail(f"the command (pid {child}) outlived its client")
+    # the server kills and reaps it once it sees the connection end; on a loaded machine that can
+    # take a while (the child's exit frees the server's copied memory), so wait for it, generously
+    give_up = time.monotonic() + 60.0
+    while status(served)["running"] and time.monotonic() < give_up:
+        time.sleep(0.01)
+    assert not status(served)["running"], f"the command (pid {child}) outlived its client"
     with pytest.raises(ProcessLookupError):
         os.kill(child, 0)
 
