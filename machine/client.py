@@ -6,8 +6,9 @@ that once; this module, imported before anything heavy (stdlib only, ~1 ms over 
 start), passes the command to it: argv, cwd, environment, umask, and the stdin/stdout/stderr
 file descriptors themselves (SCM_RIGHTS), so the forked child writes to the user's terminal or
 pipes as this process would. It then waits for the child's exit status and exits with it;
-SIGINT, SIGTERM and SIGHUP are forwarded to the child; if this process dies, the server kills
-the child (the connection closing is the signal).
+SIGINT, SIGTERM and SIGHUP are forwarded to the child (those ignored here are ignored there),
+Ctrl-Z stops it with this process and `fg`/`bg` continue it; if this process dies, the server
+kills the child (the connection closing is the signal).
 
 The command runs here, exactly as without a server, when:
 - VCNC_NO_SERVER is set (to anything but "" or "0");
@@ -216,9 +217,12 @@ def run_served(args: list[str]) -> int | None:
         return None
     umask = os.umask(0)
     os.umask(umask)
+    # ignored here (`nohup vcnc ...`, a background job of a script): ignored by the command too
+    ignored = [s for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP) if signal.getsignal(s) == signal.SIG_IGN]
     try:
         send(sock, {"op": "run", "key": code_key(), "argv": sys.argv[:1] + args, "prog_name": program_name(),
-                    "cwd": cwd, "env": dict(os.environ), "umask": umask, "stdio": stdio}, (0, 1, 2))
+                    "cwd": cwd, "env": dict(os.environ), "umask": umask, "stdio": stdio,
+                    "ignored_signals": ignored}, (0, 1, 2))
         reply, _ = receive(sock)
     except OSError:   # the server went away before it forked: nothing ran
         reply = None
@@ -231,8 +235,18 @@ def run_served(args: list[str]) -> int | None:
     def forward(signum, _frame):
         send(sock, {"signal": signum})
 
+    def suspend(_signum, _frame):   # Ctrl-Z: stop the command, then this process, as the shell expects
+        send(sock, {"signal": signal.SIGSTOP})
+        signal.signal(signal.SIGTSTP, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTSTP)
+        signal.signal(signal.SIGTSTP, suspend)   # continued (fg, bg): so is the command
+        send(sock, {"signal": signal.SIGCONT})
+
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, forward)
+        if signum not in ignored:
+            signal.signal(signum, forward)
+    if signal.getsignal(signal.SIGTSTP) != signal.SIG_IGN:
+        signal.signal(signal.SIGTSTP, suspend)
     while reply is not None and "status" not in reply:
         try:
             reply, _ = receive(sock)

@@ -17,8 +17,9 @@ parallel layer is never used), and `serve` checks it before listening.
 Safety: the socket's directory is 0700 and the user's (machine.client.check_owned), the socket
 0600, and a peer of another uid is refused. A client that goes away (killed, its terminal
 closed) takes its child with it: its connection reaching end of stream makes the server
-SIGKILL the child. Signals the client receives (SIGINT, SIGTERM, SIGHUP) are forwarded; the
-child has Python's default handlers, so Ctrl-C ends a command as it would in-process ("Aborted!").
+SIGKILL the child. Signals the client receives (SIGINT, SIGTERM, SIGHUP; Ctrl-Z as SIGSTOP and
+SIGCONT) are forwarded; the child has Python's default handlers (those the client ignores
+ignored), so Ctrl-C ends a command as it would in-process.
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ from machine import client
 
 COMMAND_MODULES = ("machine.commands.parse", "machine.commands.interp", "machine.commands.run",
                    "machine.commands.compare", "machine.commands.fit", "machine.plot", "rich.console", "rich.table")
+FORWARDED_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGSTOP, signal.SIGCONT)
 REQUEST_TIMEOUT_S = 5.0   # a client sends its request at once; a stalled one must not block the server
 
 
@@ -112,7 +114,8 @@ class Server:
     def serve(self) -> None:
         signal.set_wakeup_fd(self.wake_w)
         for signum in (signal.SIGCHLD, signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(signum, lambda *_: None)   # the wake-up byte says which
+            if signal.getsignal(signum) != signal.SIG_IGN:   # `nohup vcnc serve` outlives its terminal
+                signal.signal(signum, lambda *_: None)   # the wake-up byte says which
         self.selector.register(self.listener, selectors.EVENT_READ, self._accept)
         self.selector.register(self.wake_r, selectors.EVENT_READ, self._signalled)
         while not (self.stopping and not self.children):
@@ -207,7 +210,7 @@ class Server:
         if message is None:   # the client is gone: so is its command
             self.selector.unregister(conn)
             _kill(pid, signal.SIGKILL)
-        elif message.get("signal") in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        elif message.get("signal") in FORWARDED_SIGNALS:
             _kill(pid, message["signal"])
 
     def _reap(self) -> None:
@@ -266,7 +269,9 @@ def run_child(request: dict, fds: list[int]) -> None:
     os.setsid()
     for signum in (signal.SIGCHLD, signal.SIGTERM, signal.SIGHUP):
         signal.signal(signum, signal.SIG_DFL)
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGINT, signal.default_int_handler)   # Python's own, as in-process
+    for signum in request["ignored_signals"]:   # as Python leaves them when it starts
+        signal.signal(signum, signal.SIG_IGN)
     for target, fd in enumerate(fds):
         os.dup2(fd, target)
         os.close(fd)

@@ -162,10 +162,35 @@ def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
         os.kill(child, 0)
 
 
-def _paced(env: dict, args: list[str]) -> subprocess.Popen:
+def test_ignored_signals_stay_ignored_and_ctrl_z_stops_the_command(served, tmp_path):
+    program = tmp_path / "half_second.nc"
+    program.write_text("G21 G90 G1 X5 F600\nM2\n")   # paced: 0.5 s
+    run = _paced(served, ["run", str(program), "--realtime", "--json"],
+                 preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))   # as under nohup
+    (child,) = status(served)["running"]
+    run.send_signal(signal.SIGTSTP)
+    assert _state(run.pid) == _state(child) == "T"
+    run.send_signal(signal.SIGHUP)
+    run.send_signal(signal.SIGCONT)
+    out, err = run.communicate()
+    assert run.returncode == 0, err
+    assert json.loads(out)["position_mm"] == [5.0, 0.0, 0.0]
+
+
+def _state(pid: int) -> str:
+    """A process's state letter once it has stopped (T), or whatever it is after a generous wait."""
+    give_up = time.monotonic() + 60.0
+    while True:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        if state == "T" or time.monotonic() > give_up:
+            return state
+        time.sleep(0.01)
+
+
+def _paced(env: dict, args: list[str], **extra) -> subprocess.Popen:
     """`vcnc ARGS` (a --realtime run) once its pacing has begun (its key help on stderr)."""
     run = subprocess.Popen([sys.executable, "-m", "machine.client", *args], cwd=ROOT, env=env,
-                           stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                           stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, **extra)
     assert run.stderr.readline().startswith(b"keys: ")
     return run
 
