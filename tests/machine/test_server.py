@@ -228,3 +228,31 @@ def test_realtime_keys_from_a_terminal_through_the_server(served, tmp_path):
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["position_mm"] == [1.0, 0.0, 0.0]
     assert status(served)["requests"] == before + 1
+
+
+def test_an_exception_in_the_command_prints_its_traceback_and_exits_1(tmp_path):
+    """--debug lets an internal error out of click: the child prints it as Python would, exit 1."""
+    from machine import server
+    from machine.commands import parse
+
+    out, err = tmp_path / "out", tmp_path / "err"
+    request = {"argv": ["vcnc", "--debug", "parse", DEMO], "prog_name": "vcnc", "cwd": str(tmp_path),
+               "env": dict(os.environ), "umask": 0o022, "ignored_signals": [],
+               "stdio": [{"encoding": "utf-8", "errors": e, "line_buffering": False, "write_through": False}
+                         for e in ("strict", "strict", "backslashreplace")]}
+    pid = os.fork()
+    if pid == 0:   # a stand-in for the server's child, its command broken on purpose
+        def broken(**_):
+            raise RuntimeError("boom")
+
+        parse.command.callback = broken
+        fds = [os.open(os.devnull, os.O_RDONLY), os.open(out, os.O_WRONLY | os.O_CREAT),
+               os.open(err, os.O_WRONLY | os.O_CREAT)]
+        try:
+            server.run_child(request, fds)
+        finally:
+            os._exit(99)
+    _, status = os.waitpid(pid, 0)
+    lines = err.read_text().splitlines()
+    assert os.waitstatus_to_exitcode(status) == 1 and out.read_text() == ""
+    assert lines[0] == "Traceback (most recent call last):" and lines[-1] == "RuntimeError: boom"
