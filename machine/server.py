@@ -149,8 +149,9 @@ class Server:
             if request is None:
                 return
             op = request.get("op")
-            if op == "status":
-                client.send(conn, self.status())
+            if op == "status":   # with the asker's key: whether this server runs its code
+                client.send(conn, dict(self.status(), differs=None if request.get("key", self.key) == self.key
+                                       else _difference(self.key, request["key"])))
             elif op == "stop":
                 client.send(conn, self.status())
                 self.stop("vcnc serve --stop")

@@ -33,7 +33,9 @@ def command(status: bool, stop: bool, as_json: bool) -> None:
             age_s = time.time() - reply["started"]
             click.echo(f"vcnc server pid {reply['pid']} at {path}: up {age_s:.0f} s, {reply['requests']} "
                        f"command(s) served ({reply['children_cpu_s']:.2f} s CPU), {len(reply['running'])} running"
-                       + ("; stopping" if stop or reply["stopping"] else ""))
+                       + ("; stopping" if stop or reply["stopping"] else "")
+                       + (f"; it runs other code or settings than this vcnc ({reply['differs']}): restart it"
+                          if reply.get("differs") else ""))
         if reply is None and stop:
             sys.exit(1)
         return
@@ -63,7 +65,7 @@ def _ask(path: str, op: str) -> dict | None:
     try:
         client.check_owned(path, stat.S_IFSOCK)
         sock.connect(path)
-        client.send(sock, {"op": op})
+        client.send(sock, {"op": op, "key": client.code_key()})
         reply, _ = client.receive(sock)
         return reply
     except (OSError, client.Refused):

@@ -116,6 +116,9 @@ def test_stale_server_is_ignored_and_says_so_once(served):
                                      "(environment: NUMBA_OPT None in the server, '2' here); restart `vcnc serve`; "
                                      "running in this process\n" % status(served)["pid"])
     assert second.stderr == here.stderr_bytes == b""
+    said = vcnc(other, "serve", "--status").stdout.decode()
+    assert said.endswith("; it runs other code or settings than this vcnc (environment: NUMBA_OPT None in the "
+                         "server, '2' here): restart it\n")
 
 
 def test_stream_and_grbl_never_go_through_the_server(served, tmp_path):
