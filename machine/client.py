@@ -38,11 +38,13 @@ import zlib
 PACKAGES = ("ipr", "ipo", "machine")
 FORWARDED = frozenset({"parse", "interp", "run", "plot", "fit", "compare", "surface", "surface-report",
                        "toolpath"})
-# Read by numpy, OpenBLAS, numba or matplotlib when they load, i.e. once in the server: a client
-# whose values differ would get the server's. machine.commands sets the thread counts to 1 unless set.
+# Read once, when Python starts or numpy, OpenBLAS, numba or matplotlib load, i.e. in the server:
+# a client whose values differ would get the server's (the locale: open()'s default encoding).
+# machine.commands sets the thread counts to 1 unless set.
 THREAD_DEFAULTS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 _ENV_PREFIXES = ("NUMBA_", "OPENBLAS_", "OMP_", "MKL_", "MPL")
-_ENV_NAMES = ("PYTHONPATH", "MATPLOTLIBRC", "HOME", "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
+_ENV_NAMES = ("PYTHONPATH", "PYTHONUTF8", "LANG", "LC_ALL", "LC_CTYPE", "TZ", "MATPLOTLIBRC", "HOME",
+              "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
 _LIBRARIES = ("numpy", "numba", "llvmlite")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HEADER = struct.Struct("!I")
