@@ -31,16 +31,17 @@ from numba import njit
 from machine.workpiece.bounds import AX, AY, BX, BY, CORE, CORNER, run_table
 from machine.workpiece.chains import CHAIN_TOL_MM, MAX_SEGMENTS, build_chains
 from machine.workpiece.envelope import seg_distance
-from machine.workpiece.tiles import TILE, Batch, ZMap, cut_tile, workspace
+from machine.workpiece.tiles import TILE, Batch, ZMap, near_table, cut_tile, workspace
 
 BLOCK = 4  # tiles along a block's side
 CHUNK_BLOCKS = 64  # blocks cut between two looks at how many threads may cut
 
 
 @njit(cache=True)
-def _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners):
-    """STEP 2: (block, run) for every block within a run's reach, in run order, into blocks and owners;
-    their number (only counted while blocks is empty)."""
+def _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, fill, blocks, owners):
+    """STEP 2: with fill, (block, run) for every block within a run's reach, in run order, into blocks and
+    owners, and their number; without, a bound of that number for the arrays: the blocks of each run's rows
+    of blocks between the run's ends widened by its reach, without the test of each block's distance."""
     span = BLOCK * TILE
     half = 0.5 * (span - 1)
     e_block = half * grid_mm * math.sqrt(2.0)
@@ -60,11 +61,13 @@ def _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners):
             w = math.sqrt(reach * reach - dy_row * dy_row)
             bx0 = max(int(math.floor((min(x0, x1) - w - origin_x) / grid_mm - half)) // span, 0)
             bx1 = min(int(math.ceil((max(x0, x1) + w - origin_x) / grid_mm - half)) // span + 1, nbx - 1)
+            if not fill:
+                n += max(bx1 - bx0 + 1, 0)
+                continue
             for bx in range(bx0, bx1 + 1):
                 if seg_distance(origin_x + (bx * span + half) * grid_mm, my, x0, y0, x1, y1)[0] > reach:
                     continue
-                if blocks.shape[0]:
-                    blocks[n], owners[n] = by * nbx + bx, c
+                blocks[n], owners[n] = by * nbx + bx, c
                 n += 1
     return n
 
@@ -81,9 +84,10 @@ def plan(zm, bt):
     starts = starts[:build_chains(pos, CHAIN_TOL_MM, MAX_SEGMENTS, starts) + 1]
     runs = run_table(pos, starts, bt.core, bt.corner)
     empty = np.empty(0, np.int64)
-    n = _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, empty, empty)
+    n = _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, False, empty, empty)
     blocks, owners = np.empty(n, np.int64), np.empty(n, np.int64)
-    _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, blocks, owners)
+    n = _block_pairs(nby, nbx, origin_x, origin_y, grid_mm, runs, True, blocks, owners)
+    blocks, owners = blocks[:n], owners[:n]
     # the runs grouped by block (a stable counting sort keeps each block's runs in program order)
     offsets = np.zeros(nby * nbx + 1, np.int64)
     for p in range(blocks.shape[0]):
@@ -105,10 +109,14 @@ def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
     (no divisor in these kernels is zero)."""
     nty, ntx = zm.tile_max.shape
     nbx = -(-ntx // BLOCK)
+    most = 0
+    for u in range(blocks.shape[0]):
+        most = max(most, offsets[blocks[u] + 1] - offsets[blocks[u]])
+    ws = workspace(most)
     for u in range(blocks.shape[0]):
         b = blocks[u]
         mine = listed[offsets[b]:offsets[b + 1]]
-        ws = workspace(mine, runs)
+        near_table(mine, runs, ws.near)
         counts[0] += mine.shape[0]
         by, bx = b // nbx, b % nbx
         for ty in range(by * BLOCK, min(by * BLOCK + BLOCK, nty)):

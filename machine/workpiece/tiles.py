@@ -2,7 +2,7 @@
 
 STEP 3  The runs listed for the tile's block that its distance bound min(z_A, z_B) - drop + h(d - e)
         does not rule out (d: the tile centre's distance to the run's line, e the tile's half-diagonal),
-        each with a key: G where the line passes closest to the centre.
+        each with a key: G* at the centre for a ball, else G where the line passes closest to the centre.
 STEP 4  First the group of runs whose key is within GROUP_MM of the lowest (the passes through the tile
         and next to it: they leave the nodes near their final heights), then the others in the order of their
         keys, in chunks (CHUNK_GROWTH), each run unless its distance bound is above the tile's highest node or
@@ -27,6 +27,7 @@ from numba import njit
 
 from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, ROUNDING_MM, ball_bounds,
                                       ball_planes, bound_node, bound_plane, run_row)
+from machine.workpiece.envelope import ball_slanted
 from machine.workpiece.search import may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side
@@ -73,7 +74,7 @@ class Batch(NamedTuple):
 
 
 class Workspace(NamedTuple):
-    """A block's scratch arrays (one set per thread): its listed runs' table (_near), the candidates'
+    """A block's scratch arrays (one set per thread): its listed runs' table (near_table), the candidates'
     bounds and keys, the tile's nodes (best height, its segment) and the kept runs' G*, s* per node."""
 
     near: np.ndarray
@@ -172,14 +173,13 @@ def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
     return True, j_lo, j_hi
 
 
-# rows of a block's table of its runs (_near), laid out for the scan of each tile
+# rows of a block's table of its runs (near_table), laid out for the scan of each tile
 NX0, NY0, NDX, NDY, NINV, NLOW, NZ0, NDZ, NCORE, NCORNER = range(10)
 
 
 @njit(cache=True)
-def _near(listed, runs):
-    """The listed runs' lines and bound tools, one row per quantity (STEP 3's scan reads them in order)."""
-    near = np.empty((10, listed.shape[0]))
+def near_table(listed, runs, near):
+    """The listed runs' lines and bound tools into near's first columns (STEP 3's scan reads them in order)."""
     for p in range(listed.shape[0]):
         run = runs[listed[p]]
         dx, dy = run[BX] - run[AX], run[BY] - run[AY]
@@ -194,9 +194,11 @@ def _near(listed, runs):
 
 @njit(cache=True, inline="always")
 def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
-    """STEP 3 for the tile centred at (mx, my): every listed run's distance bound and key (G where the line
-    passes closest to the centre) into ws.scratch; returns the lowest key of the runs whose bound is below
-    top (the candidates; inf where there is none). Loops without branches, for the vector units."""
+    """STEP 3 for the tile centred at (mx, my): every listed run's distance bound and key into ws.scratch;
+    returns the lowest key of the runs whose bound is below top (the candidates; inf where there is none).
+    Loops without branches, for the vector units. A ball's key is G* at the centre, not G where the line passes
+    closest (a flat's or a bull's key, and a ball's beyond its line's cylinder): on a sloped line the lowest point
+    is off the closest, and the group by G* holds more of the final runs (finish_g01.nc: envelopes -8 %)."""
     near, scratch = ws.near, ws.scratch
     count = listed.shape[0]
     for p in range(count):
@@ -210,7 +212,10 @@ def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
         bound = near[NLOW, p] + corner - math.sqrt(corner * corner - u * u)
         w = min(max(d - core, 0.0), corner)
         scratch[0, p] = max(bound, floor_mm) if d <= core + corner + e_tile else np.inf
-        scratch[1, p] = near[NZ0, p] + t * near[NDZ, p] + corner - math.sqrt(corner * corner - w * w)
+        closest = near[NZ0, p] + t * near[NDZ, p] + corner - math.sqrt(corner * corner - w * w)
+        x0, y0, z0, z1 = near[NX0, p], near[NY0, p], near[NZ0, p], near[NZ0, p] + near[NDZ, p]
+        lowest = ball_slanted(mx, my, x0, y0, z0, x0 + dx, y0 + dy, z1, corner)[0]
+        scratch[1, p] = min(lowest, closest) if core == 0.0 and near[NINV, p] != 0.0 else closest
     key_min = np.inf
     for p in range(count):
         key_min = min(key_min, scratch[1, p] if scratch[0, p] < top else np.inf)
@@ -288,10 +293,10 @@ def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
 
 
 @njit(cache=True)
-def workspace(listed, runs):
-    """A block's scratch arrays (one set per thread)."""
-    n = listed.shape[0]
-    return Workspace(_near(listed, runs), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
+def workspace(n):
+    """Scratch arrays for blocks of up to n listed runs, one set per call of removal.cut_blocks (near_table
+    fills near for each block in turn)."""
+    return Workspace(np.empty((10, n)), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
                      np.empty(n, np.int64), np.empty((4, n)), np.empty((8, n)), np.empty((n, NODES)),
                      np.empty((n, NODES)), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64),
                      np.empty(NODES), np.empty(NODES), np.empty(NODES, np.bool_))
