@@ -2,8 +2,8 @@
 
 A fresh `vcnc` process spends ~0.38 s before its first period (Python, numpy, numba, loading
 the cached kernels), more than a short program's whole run. `vcnc serve` (machine.server) pays
-that once; this module, imported before anything heavy (stdlib only, ~1 ms over Python's own
-start), passes the command to it: argv, cwd, environment, umask, and the stdin/stdout/stderr
+that once; this module, imported before anything heavy (stdlib only: with the machine package's
+import ~10 ms of CPU over Python's own start), passes the command to it: argv, cwd, environment, umask, and the stdin/stdout/stderr
 file descriptors themselves (SCM_RIGHTS), so the forked child writes to the user's terminal or
 pipes as this process would. It then waits for the child's exit status and exits with it;
 SIGINT, SIGTERM and SIGHUP are forwarded to the child (those ignored here are ignored there),
@@ -32,17 +32,20 @@ import struct
 import sys
 import zlib
 
+from ipo.kernel_cache import PACKAGES   # (loaded with the machine package already)
+
 # socket, json, array and signal are imported where used: a command run in this process (no
 # server) does not pay for them (~3.5 ms)
 
-PACKAGES = ("ipr", "ipo", "machine")
 FORWARDED = frozenset({"parse", "interp", "run", "plot", "fit", "compare", "surface", "surface-report",
                        "toolpath"})
-# Read once, when Python starts or numpy, OpenBLAS, numba or matplotlib load, i.e. in the server:
+# Read once, when Python starts or numpy, OpenBLAS, numba, matplotlib or scipy load, i.e. in the server:
 # a client whose values differ would get the server's (the locale: open()'s default encoding).
-# machine.commands sets the thread counts to 1 unless set.
+# The BLAS thread counts are 1 unless set, as machine.commands sets them before numpy loads (not
+# imported from there: machine.commands is among the kernels' sources, ipo/kernel_cache.py, and an
+# edit of this module would then recompile every kernel).
 THREAD_DEFAULTS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-_ENV_PREFIXES = ("NUMBA_", "OPENBLAS_", "OMP_", "MKL_", "MPL")
+_ENV_PREFIXES = ("NUMBA_", "OPENBLAS_", "OMP_", "MKL_", "MPL", "SCIPY_")
 _ENV_NAMES = ("PYTHONPATH", "PYTHONUTF8", "LANG", "LC_ALL", "LC_CTYPE", "TZ", "MATPLOTLIBRC", "HOME",
               "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
 _LIBRARIES = ("numpy", "numba", "llvmlite")
