@@ -63,7 +63,10 @@ def warm(log) -> None:
 
     t0 = time.perf_counter()
     for name in COMMAND_MODULES:
-        importlib.import_module(name)
+        try:
+            importlib.import_module(name)
+        except ImportError as err:   # scipy (machine.workpiece.measure) is a dev extra, not a dependency
+            log(f"not loaded: {name} ({err}); a command that needs it imports it, as in-process")
     exercise(None)
     gc.collect()
     gc.freeze()   # the children's collections need not walk (and copy on write) the server's objects
