@@ -51,7 +51,7 @@ class ConvertReport:
     sharp_corners: int = 0  # vertices kept sharp inside groups (a knot of multiplicity = degree)
     double_knots: int = 0  # the other knots of multiplicity 2 (conic spans: the weights restart, the curve is tangent)
     sharp_vertices: int = 0  # the chains' vertices that must stay sharp (ipo.fit.chains.sharp_vertices)
-    feeds_merged: int = 0  # feed changes inside groups (all beyond the machine's reach)
+    feeds_merged: int = 0  # feed changes inside groups and written G1/G2/G3 runs (all beyond the machine's reach)
     groups: int = 0
     arcs: int = 0  # G2/G3 blocks written for runs of G1 moves (ipo.fit.arcs)
     lines: int = 0  # G1 blocks written for runs of G1 moves within tol of one line

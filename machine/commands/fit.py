@@ -63,8 +63,9 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
         " a group counted as written: a block per control point, plus the closing knot blocks of G06.2"
         " or the G5.3 of G5.2)",
         f"bytes            {rep.bytes_before} -> {rep.bytes_after}  ({ratio_bytes:.2f}x fewer)",
-        *([f"feeds            {rep.feeds_merged} feed changes inside groups: all at or above what the machine's"
-           " axes reach together, so alike; each group is written with its lowest F"] if rep.feeds_merged else []),
+        *([f"feeds            {rep.feeds_merged} feed changes inside groups and written lines/arcs: all at or above"
+           " what the machine's axes reach together, so alike; each is written with its lowest F"]
+          if rep.feeds_merged else []),
         f"max deviation    {rep.max_deviation_mm * 1e3:.3f} um",
         f"fit time         {rep.fit_time_s:.2f} s",
     ]
