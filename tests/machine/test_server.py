@@ -166,8 +166,8 @@ def test_ctrl_c_reaches_the_command_and_a_gone_client_takes_it_along(served):
 
 
 def test_ignored_signals_stay_ignored_and_ctrl_z_stops_the_command(served, tmp_path):
-    program = tmp_path / "half_second.nc"
-    program.write_text("G21 G90 G1 X5 F600\nM2\n")   # paced: 0.5 s
+    program = tmp_path / "a_minute.nc"
+    program.write_text("G21 G90 G1 X60 F60\nM2\n")   # paced: 60 s, so no load ends it before the signals
     run = _paced(served, ["run", str(program), "--realtime", "--json"],
                  preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))   # as under nohup
     (child,) = status(served)["running"]
@@ -175,17 +175,19 @@ def test_ignored_signals_stay_ignored_and_ctrl_z_stops_the_command(served, tmp_p
     assert _state(run.pid) == _state(child) == "T"
     run.send_signal(signal.SIGHUP)
     run.send_signal(signal.SIGCONT)
-    out, err = run.communicate()
-    assert run.returncode == 0, err
-    assert json.loads(out)["position_mm"] == [5.0, 0.0, 0.0]
+    assert _state(child, "T") != "T" and status(served)["running"] == [child], "continued, and SIGHUP ignored"
+    run.send_signal(signal.SIGINT)
+    _, err = run.communicate()
+    assert (run.returncode, err.splitlines()[-1]) == (1, b"Aborted!")
 
 
-def _state(pid: int) -> str:
-    """A process's state letter once it has stopped (T), or whatever it is after a generous wait."""
+def _state(pid: int, leaving: str | None = None) -> str:
+    """A process's state letter once it has stopped (T), or once it is no longer `leaving`, or
+    whatever it is after a generous wait."""
     give_up = time.monotonic() + 60.0
     while True:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-        if state == "T" or time.monotonic() > give_up:
+        if (state != leaving if leaving else state == "T") or time.monotonic() > give_up:
             return state
         time.sleep(0.01)
 
