@@ -105,6 +105,11 @@ def test_run_and_interp_the_same_output(served, tmp_path):
     assert {k: v for k, v in a.items() if not k.endswith("_s")} == {k: v for k, v in b.items() if not k.endswith("_s")}
 
 
+def test_compare_the_same_table(served):
+    through, here = served_and_here(served, "compare", DEMO, DEMO, "--planner", "grbl", "--planner", "vcnc")
+    assert through == here and here[0] == 0 and "largest distance to the other path" in here[1].decode()
+
+
 def test_stale_server_is_ignored_and_says_so_once(served):
     other = dict(served, NUMBA_OPT="2")   # a setting numba reads when it loads: not the server's
     before = status(served)["requests"]
