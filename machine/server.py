@@ -63,10 +63,7 @@ def warm(log) -> None:
 
     t0 = time.perf_counter()
     for name in COMMAND_MODULES:
-        try:
-            importlib.import_module(name)
-        except ImportError as err:   # scipy (machine.workpiece.measure) is a dev extra, not a dependency
-            log(f"not loaded: {name} ({err}); a command that needs it imports it, as in-process")
+        importlib.import_module(name)
     exercise(None)
     gc.collect()
     gc.freeze()   # the children's collections need not walk (and copy on write) the server's objects

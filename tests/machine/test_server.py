@@ -267,16 +267,3 @@ def test_an_exception_in_the_command_prints_its_traceback_and_exits_1(tmp_path):
     assert os.waitstatus_to_exitcode(status) == 1 and out.read_text() == ""
     assert lines[0] == "Traceback (most recent call last):" and lines[-1] == "RuntimeError: boom"
 
-
-def test_a_module_the_server_cannot_load_is_said_and_left_to_its_command(monkeypatch):
-    """scipy (machine.workpiece.measure's) is a dev extra: without it the server still starts."""
-    from machine import server
-    from machine.commands import warmup
-
-    monkeypatch.setattr(server, "COMMAND_MODULES", ("machine.no_such_module",))
-    monkeypatch.setattr(warmup, "exercise", lambda config: None)
-    monkeypatch.setattr(server.gc, "freeze", lambda: None)   # (this process is pytest's)
-    said = []
-    server.warm(said.append)
-    assert said[0] == ("not loaded: machine.no_such_module (No module named 'machine.no_such_module'); "
-                       "a command that needs it imports it, as in-process")
