@@ -80,6 +80,7 @@ class GrblDouble:
         self.gc = ParserState({c: [0.0, 0.0, 0.0] for c in (54, 55, 56, 57, 58, 59)}, self.pos)
         self.gc.offsets[54] = [float(v) for v in wco]
         self.executed: list[tuple[str, tuple | None]] = []  # (line, machine target) in the order it took effect
+        self.moves_at_first_hold: int | None = None  # motions executed when the first feed hold took effect
         self.lines_received = 0
         self.received: list[str] = []  # every non-empty line as it arrived
         self.state, self.sub = "Idle", 0
@@ -128,6 +129,8 @@ class GrblDouble:
                 self._status(now)
             elif c == 0x21 and self.state in ("Idle", "Run"):
                 self._drain(now)
+                if self.moves_at_first_hold is None:
+                    self.moves_at_first_hold = sum(target is not None for _, target in self.executed)
                 if self.state == "Run":
                     if self.partial_blocks and self.planner and self.drain_s:
                         self.pos = self._inside(self.planner[0], min(1.0, (now - self._t_block) / self.drain_s))
