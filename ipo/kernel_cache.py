@@ -36,7 +36,9 @@ from pathlib import Path
 PACKAGES = ("ipr", "ipo", "machine")
 _ROOT = Path(__file__).resolve().parent.parent
 _VERSION = r"[0-9a-f]{16}"
-_USES_NUMBA = re.compile(rb"^\s*(?:import|from)\s+numba\b", re.M)
+# a kernel module imports numba at its top; the CLI's numba imports inside functions (run's compile
+# notice, warmup's counter: numba.core.event) define no kernel, and would key every kernel on the CLI
+_USES_NUMBA = re.compile(rb"^(?:import|from)\s+numba\b", re.M)
 _IMPORT = re.compile(r"^\s*(?:from\s+((?:ipr|ipo|machine)(?:\.\w+)*)\s+import\s+\(?([\w\s,]+)\)?"
                      r"|import\s+((?:ipr|ipo|machine)(?:\.\w+)*))", re.M)
 
