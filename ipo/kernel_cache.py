@@ -56,12 +56,14 @@ def _imported(name: str, text: str) -> set[str]:
     return found | parents
 
 
-def _source_files(root: Path) -> list[Path]:
+def package_files(root: Path, suffix: str = ".py") -> list[Path]:
+    """The files of vcnc's packages under root whose names end with suffix, in a fixed order
+    (also machine.client's key of the code a server runs, with every file)."""
     files = []
     for package in PACKAGES:
         for folder, subfolders, names in os.walk(root / package):
             subfolders[:] = sorted(s for s in subfolders if s != "__pycache__")
-            files += [Path(folder, n) for n in sorted(names) if n.endswith(".py")]
+            files += [Path(folder, n) for n in sorted(names) if n.endswith(suffix)]
     return files
 
 
@@ -69,7 +71,7 @@ def kernel_sources(root: Path = _ROOT) -> dict[str, bytes]:
     """Source of every module a compiled kernel can depend on, by module name (`root` holds
     the packages)."""
     texts = {}
-    for path in _source_files(root):
+    for path in package_files(root):
         name = ".".join(path.relative_to(root).with_suffix("").parts)
         texts[name.removesuffix(".__init__")] = path.read_bytes()
     todo = [name for name, text in texts.items() if _USES_NUMBA.search(text)]
@@ -93,7 +95,7 @@ def source_hash(root: Path = _ROOT) -> str:
 
 def _stat_key() -> str:
     digest = hashlib.sha1(str(_ROOT).encode())
-    for path in _source_files(_ROOT):
+    for path in package_files(_ROOT):
         st = path.stat()
         digest.update(f"{path}\0{st.st_mtime_ns}\0{st.st_size}\0".encode())
     return digest.hexdigest()

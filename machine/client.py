@@ -31,8 +31,9 @@ import stat
 import struct
 import sys
 import zlib
+from pathlib import Path
 
-from ipo.kernel_cache import PACKAGES   # (loaded with the machine package already)
+from ipo.kernel_cache import package_files   # (loaded with the machine package already)
 
 # socket, json, array and signal are imported where used: a command run in this process (no
 # server) does not pay for them (~3.5 ms)
@@ -90,13 +91,9 @@ def code_key() -> dict:
     from importlib.util import find_spec
 
     files = []
-    for package in PACKAGES:
-        for folder, subfolders, names in os.walk(os.path.join(ROOT, package)):
-            subfolders[:] = sorted(s for s in subfolders if s != "__pycache__")
-            for name in sorted(names):
-                path = os.path.join(folder, name)
-                st = os.stat(path)
-                files.append([os.path.relpath(path, ROOT), st.st_mtime_ns, st.st_size])
+    for path in package_files(Path(ROOT), suffix=""):
+        st = os.stat(path)
+        files.append([os.path.relpath(path, ROOT), st.st_mtime_ns, st.st_size])
     libraries = []
     for name in _LIBRARIES:
         origin = find_spec(name).origin
