@@ -7,6 +7,7 @@
   travel check of the whole path.
 - `realtime`: pacing at the interpolation period, with hold, override and stop.
 - `trace`, `plot`, `report/`: per-period recording, its plots and the HTML report.
+- `path_distance`: the exact distance from a path's periods to another path (`vcnc compare`).
 - `grbl/`: the link to a grbl 1.1 board (NURBS sent as planned G1 segments).
 - `increments/`: the increment protocol, its link and a receiver.
 - `cli`, `commands/`: the `vcnc` command line, one module per subcommand.

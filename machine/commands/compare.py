@@ -11,8 +11,8 @@ a finishing section, 002's feed-direction roughness R_max (max, mean) of the cut
 
 Feed figures cover the cutting periods (feed moves, not rapids, not standing still);
 the minimum leaves out the first and last millimetre of cutting (the start-up and
-the final stop). The path distance is measured between the commanded positions of
-every period, each point against the other path's polyline near the same arc length.
+the final stop). The path distance is measured from the commanded position of every
+period to the other path's polyline through its periods, exactly (machine.path_distance).
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ import numpy as np
 
 from ipo.config import PLANNERS
 from machine.commands import INPUT_FILE, OutputPath, apply_planner, linuxcnc_ini_option, load_machine
+from machine.path_distance import polyline_distances_mm
 
 ROWS = [("planner", "planner", "{}"), ("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
@@ -34,7 +35,6 @@ ROWS = [("planner", "planner", "{}"), ("blocks", "blocks", "{:d}"), ("bytes", "b
         ("roughness R_max max", "rmax_max_um", "{:.3f} um"), ("roughness R_max mean", "rmax_mean_um", "{:.3f} um")]
 SLOW_FRACTION = 0.5
 MIN_FEED_SKIP_MM = 1.0
-WINDOW_MM = 2.0
 DETAIL_MM = 250.0  # the zoomed part of the plot
 _NOT_FIGURES = ("trace", "feed_lines", "rpm", "program", "summary", "deviation_mm", "surface")  # a run's non-figures
 TANGENT_PERIODS = 5  # either side of a period, for the slope of the roughness model
@@ -131,26 +131,6 @@ def _roughness(run: dict, config) -> dict:
     return {"rmax_max_um": float(r.max() * 1e3), "rmax_mean_um": float(r.mean() * 1e3)}
 
 
-def path_distances_mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance from each point of a to the polyline b, each point checked against the segments of
-    b within WINDOW_MM of the same (proportional) arc length: an upper bound of the true distance."""
-    sa = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(a, axis=0), axis=1))])
-    sb = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(b, axis=0), axis=1))])
-    at = sa * (sb[-1] / max(sa[-1], 1e-300))
-    lo = np.clip(np.searchsorted(sb, at - WINDOW_MM) - 1, 0, len(b) - 2)
-    hi = np.clip(np.searchsorted(sb, at + WINDOW_MM), 1, len(b) - 1)
-    width = int((hi - lo).max())
-    best = np.full(len(a), np.inf)
-    for k in range(width):
-        j = np.minimum(lo + k, len(b) - 2)
-        p0, p1 = b[j], b[j + 1]
-        d = p1 - p0
-        len2 = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-        t = np.clip(np.einsum("ij,ij->i", a - p0, d) / len2, 0.0, 1.0)
-        best = np.minimum(best, np.linalg.norm(a - p0 - t[:, None] * d, axis=1))
-    return best
-
-
 def compare_programs(path_a, path_b, machine=None, cut: dict | None = None, configs=None) -> dict:
     """Both programs' figures, keyed "a" and "b" (plus "files"); with `cut` (build_workpiece's stock_text,
     tool, grid_um) both cut a workpiece and "surfaces" holds the machined surfaces' figures. `configs`:
@@ -170,9 +150,9 @@ def compare_programs(path_a, path_b, machine=None, cut: dict | None = None, conf
         figs.update(_roughness(run, config))
         out[key] = figs
     pa, pb = runs["a"]["trace"]["pos_mm"], runs["b"]["trace"]["pos_mm"]
-    runs["a"]["deviation_mm"] = path_distances_mm(pa, pb)
+    runs["a"]["deviation_mm"] = polyline_distances_mm(pa, pb)
     out["a"]["path_distance_um"] = float(runs["a"]["deviation_mm"].max() * 1e3)
-    out["b"]["path_distance_um"] = float(path_distances_mm(pb, pa).max() * 1e3)
+    out["b"]["path_distance_um"] = float(polyline_distances_mm(pb, pa).max() * 1e3)
     if cut is not None:
         from machine.workpiece.pair import compare_surfaces
 
