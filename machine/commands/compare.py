@@ -17,6 +17,7 @@ period to the other path's polyline through its periods, exactly (machine.path_d
 from __future__ import annotations
 
 import json
+from contextlib import contextmanager
 from pathlib import Path
 
 import click
@@ -24,7 +25,6 @@ import numpy as np
 
 from ipo.config import PLANNERS
 from machine.commands import INPUT_FILE, OutputPath, apply_planner, linuxcnc_ini_option, load_machine
-from machine.path_distance import polyline_distances_mm
 
 ROWS = [("planner", "planner", "{}"), ("blocks", "blocks", "{:d}"), ("bytes", "bytes", "{:d}"), ("machining time", "time_s", "{:.2f} s"),
         ("mean feed", "mean_feed_mm_min", "{:.0f} mm/min"), ("min feed", "min_feed_mm_min", "{:.0f} mm/min"),
@@ -136,6 +136,7 @@ def compare_programs(path_a, path_b, machine=None, cut: dict | None = None, conf
     tool, grid_um) both cut a workpiece and "surfaces" holds the machined surfaces' figures. `configs`:
     the machine configuration of each run (default: the machine file's, for both)."""
     from ipo.config import default_config, load_config
+    from machine.path_distance import polyline_distances_mm
 
     if configs is None:
         config = default_config() if machine is None else load_config(machine)
@@ -159,6 +160,25 @@ def compare_programs(path_a, path_b, machine=None, cut: dict | None = None, conf
         out["surfaces"] = compare_surfaces(runs["a"]["surface"], runs["b"]["surface"])
     out["_runs"] = runs
     return out
+
+
+@contextmanager
+def reported(machine):
+    """A comparison's errors that the user can fix (a program refused, a bad stock, tool or machine
+    file) as click errors, said without a traceback."""
+    from ipo.config import ConfigError
+    from machine.controller import ProgramRejected
+    from machine.workpiece.stock import StockError
+    from machine.workpiece.tool import ToolError
+
+    try:
+        yield
+    except (StockError, ToolError) as err:
+        raise click.ClickException(str(err)) from None
+    except ProgramRejected as err:
+        raise click.ClickException(f"program rejected:\n{err}") from None
+    except ConfigError as err:
+        raise click.ClickException(f"machine file {machine}: {err}") from None
 
 
 def format_table(res: dict) -> str:
@@ -240,12 +260,7 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, report_ou
             stock_text: str | None, tool: int | None, grid_um: float | None, surface_plot: str | None,
             as_json: bool, planners: tuple[str, ...], grbl_settings: str | None, linuxcnc_ini: str | None) -> None:
     """Run two programs (or one on two controllers) and compare them (002 Table 1)."""
-    from ipo.config import ConfigError
-    from machine.controller import ProgramRejected
-
     from machine.workpiece.pair import cut_options
-    from machine.workpiece.stock import StockError
-    from machine.workpiece.tool import ToolError
 
     if len(planners) > 2:
         raise click.BadParameter("give it once (both runs) or twice (A, then B)", param_hint="--planner")
@@ -253,14 +268,8 @@ def command(a: str, b: str, machine: str | None, plot_out: str | None, report_ou
     config = load_machine(machine)
     configs = [apply_planner(config, p, grbl_settings, linuxcnc_ini)
                for p in (planners * 2 if len(planners) == 1 else planners or (None, None))]
-    try:
+    with reported(machine):
         res = compare_programs(a, b, machine, cut, configs)
-    except (StockError, ToolError) as err:
-        raise click.ClickException(str(err)) from None
-    except ProgramRejected as err:
-        raise click.ClickException(f"program rejected:\n{err}") from None
-    except ConfigError as err:
-        raise click.ClickException(f"machine file {machine}: {err}") from None
     if plot_out:
         _plot(res, plot_out)
     if report_out:

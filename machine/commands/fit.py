@@ -8,8 +8,11 @@ program's plane as one G1 or G2/G3 block (ipo.fit.arcs) where that costs fewer b
 everything else is copied. Each group is tabled as the controller's
 check tables it (controller_check); one it would refuse stays as the moves it replaces.
 Prints chains, corners, blocks and bytes before/after, the largest deviation and the fit
-time; with --compare also what the user gains on vcnc's controller: cycle time and feed
-fluctuation of both programs (the figures of `vcnc compare IN OUT`).
+time; with --compare also what the user gains: both programs run on the machine file's
+planner (the table of `vcnc compare IN OUT`), then the machining time and feed fluctuation on
+each planner, vcnc's and the grbl and LinuxCNC twins (`vcnc compare --planner P`; a twin that
+cannot run a program says why: LinuxCNC 2.9 runs only planar G5.2 curves); with --stock also
+both machined surfaces and their difference (`vcnc compare --stock`).
 """
 from __future__ import annotations
 
@@ -100,15 +103,23 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
               help="Write a run of G1 moves within the tolerance of one line or of one arc in the program's plane as "
                    "one G1 or G2/G3 block where that costs fewer blocks than a group (G06.2 only).")
 @click.option("--compare", "gains", is_flag=True,
-              help="Also run both programs in vcnc's controller and print cycle time and feed fluctuation.")
+              help="Also run both programs, on the machine file's planner and on each of vcnc's and the grbl and "
+                   "LinuxCNC twins, and print machining time, feed fluctuation and the distance between the paths.")
+@click.option("--stock", "stock_text",
+              help="With --compare: cut a virtual workpiece with both, XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm), and print "
+                   "both machined surfaces and their difference.")
+@click.option("--tool", type=int, help="With --stock: the workpiece's tool (default: the program's T… M6).")
+@click.option("--grid-um", type=float, help="With --stock: Z-map spacing in um (default: from the tool).")
 @click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
 def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: float, jobs: int | None, dialect: str,
-            arcs: bool, gains: bool, machine: str | None) -> None:
+            arcs: bool, gains: bool, stock_text: str | None, tool: int | None, grid_um: float | None,
+            machine: str | None) -> None:
     """Replace G01 runs by rational B-spline G06.2 groups within a tolerance."""
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
     from ipo.errors import IpoError
+    from machine.workpiece.pair import cut_options
 
     if not tol_mm > 0:
         raise click.BadParameter(f"must be > 0, got {tol_mm}", param_hint="--tol-mm")
@@ -116,6 +127,9 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
         raise click.BadParameter(f"must be 1..5 (G06.2 order 2..6), got {degree}", param_hint="--degree")
     if not 0 <= corner_deg <= 180:
         raise click.BadParameter(f"must be 0..180, got {corner_deg}", param_hint="--corner-deg")
+    if stock_text is not None and not gains:
+        raise click.UsageError("--stock cuts both programs for the comparison: add --compare")
+    cut = cut_options(stock_text, tool, grid_um, None)
     try:
         config = default_config() if machine is None else load_config(machine)
     except ConfigError as err:
@@ -135,7 +149,34 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     click.echo(f"{src} -> {out}")
     click.echo(format_report(report, tol_mm, dialect))
     if gains:
-        from machine.commands.compare import compare_programs, format_table
+        print_gains(src, out, machine, config, cut)
 
-        click.echo("\nwhat the fit changes on vcnc's controller (vcnc compare):")
-        click.echo(format_table(compare_programs(src, out, machine)))
+
+def print_gains(src: str, out: str, machine: str | None, config, cut: dict | None) -> None:
+    """What the fit changes: `vcnc compare SRC OUT` on the machine file's planner (with the workpieces of
+    `cut`), then machining time and feed fluctuation on every planner."""
+    from ipo.config import PLANNERS
+    from machine.commands.compare import compare_programs, format_table, reported
+    from machine.planners import with_planner
+    from machine.workpiece.pair import format_surfaces
+
+    click.echo(f"\nwhat the fit changes on the {config.planner} planner (vcnc compare):")
+    with reported(machine):
+        own = compare_programs(src, out, machine, cut, (config, config))
+    click.echo(format_table(own))
+    if "surfaces" in own:
+        click.echo(format_surfaces(own["surfaces"], own["files"]))
+    click.echo("\non each planner (vcnc compare --planner P; the machine file's settings):")
+    click.echo(f"{'planner':10s} {'machining time':>30s} {'feed fluctuation':>22s}")
+    for name in PLANNERS:
+        twin = with_planner(config, name)
+        try:
+            with reported(machine):
+                res = own if name == config.planner else compare_programs(src, out, machine, None, (twin, twin))
+        except click.ClickException as err:
+            click.echo(f"{name:10s} not run: {err.message}")
+            continue
+        a, b = res["a"], res["b"]
+        change = (b["time_s"] / a["time_s"] - 1) * 100
+        click.echo(f"{name:10s} {a['time_s']:10.2f} s -> {b['time_s']:8.2f} s {change:+6.1f}%"
+                   f" {a['feed_fluctuation_pct']:8.2f} % -> {b['feed_fluctuation_pct']:6.2f} %")

@@ -405,3 +405,39 @@ def test_a_rotated_system_or_cutter_compensation_is_written_as_it_is(frame):
     plain = src.replace("\n".join(frame) + "\n", "").replace("G40\n", "")
     out_plain, _ = convert_text(plain, 0.01)
     assert count_blocks(out_plain) < count_blocks(plain) / 10   # the same arc, unrotated, is fitted
+
+
+def test_vcnc_fit_compare_on_every_planner(tmp_path):
+    """`vcnc fit --compare` prints each planner's machining time before and after: the same figures as
+    `vcnc compare --planner P`, each at least one circle of radius 10 at F1000 takes; with --stock both
+    machined surfaces; a twin that cannot run the fitted program says why instead of a figure."""
+    import json
+    import re
+    from pathlib import Path
+
+    from machine.cli import main
+
+    src = Path(__file__).resolve().parents[3] / "programs" / "circle_g1_360.nc"
+    dst = tmp_path / "c.nc"
+    res = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01", "--dialect", "g5.2",
+                                    "--compare", "--stock=-14,-14,-3,14,14,0.5", "--grid-um", "200", "--tool", "1"])
+    assert res.exit_code == 0, res.output
+    assert "machined surfaces" in res.output and "difference B - A" in res.output
+    rows = dict(re.findall(r"^(vcnc|grbl|linuxcnc) +([\d.]+ s -> +[\d.]+ s)", res.output, re.M))
+    assert set(rows) == {"vcnc", "grbl", "linuxcnc"}, res.output
+    for planner, cell in rows.items():
+        before, after = (float(t) for t in re.findall(r"[\d.]+(?= s)", cell))
+        assert min(before, after) > 2 * np.pi * 10 / (1000 / 60)
+        cmp = CliRunner().invoke(main, ["compare", str(src), str(dst), "--planner", planner, "--json"])
+        figs = json.loads(cmp.output[cmp.output.index("{"):])
+        assert (round(figs["a"]["time_s"], 2), round(figs["b"]["time_s"], 2)) == (before, after), planner
+    # a 3-D G06.2 group: LinuxCNC 2.9 runs only planar G5.2 curves
+    helix = tmp_path / "helix.nc"
+    moves = "\n".join(f"X{10 * np.cos(t):.4f} Y{10 * np.sin(t):.4f} Z{-t / 10:.4f}" for t in np.linspace(0, 3, 120))
+    helix.write_text(f"G21 G17 G90 G94 G64\nG0 X10 Y0 Z5\nG1 Z0 F600\n{moves}\nG0 Z5\nM2\n")
+    res = CliRunner().invoke(main, ["fit", str(helix), "-o", str(dst), "--tol-mm", "0.01", "--compare"])
+    assert res.exit_code == 0, res.output
+    assert re.search(r"^linuxcnc +not run: .*E-TWIN-UNSUPPORTED", res.output, re.M), res.output
+    assert re.search(r"^grbl +[\d.]+ s ->", res.output, re.M), res.output
+    bad = CliRunner().invoke(main, ["fit", str(src), "-o", str(dst), "--tol-mm", "0.01", "--stock=0,0,0,1,1,1"])
+    assert bad.exit_code == 2 and "add --compare" in bad.output
