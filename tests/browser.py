@@ -48,6 +48,8 @@ class Page:
         from_browser_r, from_browser_w = os.pipe()
         self._proc = subprocess.Popen(
             [CHROMIUM, *FLAGS, "--remote-debugging-pipe", f"--user-data-dir={self._profile}", "about:blank"],
+            # its singleton socket goes to TMPDIR, which a terminated chromium leaves behind: into the profile
+            env=dict(os.environ, TMPDIR=self._profile),
             pass_fds=(3, 4), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL if os.environ.get("VCNC_CHROMIUM_LOG") is None else open(os.environ["VCNC_CHROMIUM_LOG"], "w"),
             preexec_fn=lambda: _onto_3_and_4(to_browser_r, from_browser_w))
