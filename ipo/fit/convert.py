@@ -10,7 +10,8 @@ unchanged. The curve as written (rounded; an arc as the controller's arc geometr
 checked against the tolerance again, and a group by the
 controller's own test where the caller hands it in (`walkable`: machine/ does, so that vcnc fit
 never writes a group vcnc run refuses); the moves of a group that fails either check are planned again
-in halves (up to SPLITS times), and a piece that still fails stays G01.
+in halves until each piece passes or is too short to halve (fewer than MIN_SPLIT moves); such a piece that still
+fails stays G01.
 """
 from __future__ import annotations
 
@@ -42,7 +43,7 @@ PURE_G = frozenset({1.0, 2.0, 3.0})
 DIALECTS = ("g06.2", "g5.2")
 NO_SAVING = "no group saves blocks"  # why a piece is kept where no fit is wrong: G1 is cheaper there
 REFUSED = "the controller cannot follow the group"  # why a group that fits is kept G1 (walkable said no)
-SPLITS = 3  # a group that fails a check as written is planned again in halves, this many times at most
+MIN_SPLIT = 4  # a group that fails a check as written is planned again in halves while it has this many moves
 
 
 @dataclass(slots=True)
@@ -164,9 +165,8 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     chain_frames = [frames[c.moves[0].line] for c in chains]
     how = (tol_mm, writer, walkable, jobs)
     written = _written_all(chains, plans, chain_frames, how)
-    for _ in range(SPLITS):
-        if not _split_failed(chains, options, chain_frames, plans, written, planner, how):
-            break
+    while _split_failed(chains, options, chain_frames, plans, written, planner, how):
+        pass
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
         new, tail, tail_feed_mm_s = _convert_chain(chain, spans, groups, lines, frame, report)
@@ -274,7 +274,7 @@ def _split_failed(chains: list[Chain], options: list[FitOptions], frames: list[F
     spans move a little from the spans as planned (3-D junctions, rounding): one group off by a fraction of a
     micrometre would otherwise keep hundreds of moves as G1."""
     todo = [(i, j) for i, groups in enumerate(written) for j, w in enumerate(groups)
-            if w is not None and (w.off or w.refused is not None) and plans[i][j].last - plans[i][j].first >= 4]
+            if w is not None and (w.off or w.refused is not None) and plans[i][j].last - plans[i][j].first >= MIN_SPLIT]
     halves = []  # (chain, options, frame, first move in the whole chain)
     for i, j in todo:
         span = plans[i][j]

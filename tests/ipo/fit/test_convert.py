@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from ipr import Setup, parse_text
 from ipr.entities import GCodeError, Line, Nurbs
 from ipo.nurbs.kernel import curve_points
-from ipo.fit.convert import convert_text, count_blocks
+from ipo.fit.convert import REFUSED, convert_text, count_blocks
 
 
 def _ellipse_run(n=120, a=12.0, b=5.0, z=-1.0, digits=4, scale=1.0, sweep=np.pi):
@@ -167,7 +167,7 @@ def _refuse_below_z3(curve: Nurbs) -> str | None:
 
 
 def test_controller_check_in_worker_processes_keeps_the_groups_it_refuses():
-    # the check refuses the three lowest runs: planned again in halves (ipo.fit.convert.SPLITS times) and
+    # the check refuses the three lowest runs: planned again in halves (down to ipo.fit.convert.MIN_SPLIT moves) and
     # refused again, they stay G1 (the source's moves, or G1 lines each within tol of several of them), whether
     # the checks run in two worker processes or in this one
     src = _six_runs()
@@ -194,7 +194,7 @@ def _refuse_over_24_points(curve: Nurbs) -> str | None:
 
 def test_a_refused_group_is_planned_again_in_halves_until_the_controller_takes_them():
     # one 200-move run: fitted alone it is one group of more than 24 points; refused, its moves are planned
-    # again as halves (at most ipo.fit.convert.SPLITS times), and every half the check takes is written
+    # again as halves (down to ipo.fit.convert.MIN_SPLIT moves), and every half the check takes is written
     _, words = _ellipse_run(n=200)
     src = _program(words, extra_after=())
     plain, _ = convert_text(src, 0.001, jobs=1)
@@ -203,6 +203,23 @@ def test_a_refused_group_is_planned_again_in_halves_until_the_controller_takes_t
     written = [e for e in parse_text(out).entities if isinstance(e, Nurbs)]
     assert written and all(len(e.points) <= 24 for e in written)
     assert not [why for _, why in rep.kept_g01 if why.endswith("over 24 control points")]
+    _check_round_trip(src, out, 0.001)
+
+
+def _refuse_over_6_points(curve: Nurbs) -> str | None:
+    return "over 6 control points" if len(curve.points) > 6 else None
+
+
+def test_a_group_refused_after_three_halvings_is_halved_again():
+    # the same run under a check that takes only groups of 6 points or fewer: halving the 200 moves three
+    # times leaves pieces of 25 moves, still refused; they are halved again until the check takes each half
+    # (or it is too short to halve), so none stays G1 because the check refused it (three halvings kept two)
+    _, words = _ellipse_run(n=200)
+    src = _program(words, extra_after=())
+    out, rep = convert_text(src, 0.001, jobs=1, walkable=_refuse_over_6_points)
+    written = [e for e in parse_text(out).entities if isinstance(e, Nurbs)]
+    assert written and all(len(e.points) <= 6 for e in written)
+    assert not [why for _, why in rep.kept_g01 if why.startswith(REFUSED)]
     _check_round_trip(src, out, 0.001)
 
 
