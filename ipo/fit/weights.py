@@ -92,32 +92,44 @@ def junction_lambda(c_prev, j, c):
 
 
 @njit(cache=True)
+def may_continue(c_prev, j, rho_prev, prev, c, out):
+    """The state after a span of control point c that continues the run at junction j (reached by a span
+    of control point c_prev, weight rho_prev, state prev) into out, all but what the span's own weight
+    sets (LOG_E, and W_LO, W_HI through it); whether the spans' junction and the spreads so far allow
+    that. False: a span through c costs a double knot at j (or cannot follow), whatever its weight."""
+    lam = junction_lambda(c_prev, j, c)
+    if not LAMBDA_MIN <= lam <= 1.0 - LAMBDA_MIN:
+        return False
+    den = rho_prev * rho_prev - (1.0 - lam) * prev[X]
+    if den <= 0.0:
+        return False
+    x = lam * rho_prev * rho_prev / den
+    out[X] = x
+    out[LOG_W] = prev[LOG_E] + np.log(x)
+    out[LOG_H] = prev[LOG_H] + np.log((1.0 - lam) / lam) + out[LOG_W] - prev[LOG_W]
+    out[W_LO] = min(prev[W_LO], out[LOG_W])
+    out[W_HI] = max(prev[W_HI], out[LOG_W])
+    out[H_LO] = min(prev[H_LO], out[LOG_H])
+    out[H_HI] = max(prev[H_HI], out[LOG_H])
+    out[LOG_G] = prev[LOG_G] + out[LOG_H] - prev[LOG_H]
+    out[G_LO] = min(prev[G_LO], out[LOG_G])
+    out[G_HI] = max(prev[G_HI], out[LOG_G])
+    return (out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD
+            and out[G_HI] - out[G_LO] <= LOG_EVEN_SPREAD)
+
+
+@njit(cache=True)
 def follow(run_start, c_prev, j, rho_prev, prev, c, rho, out):
     """The state after a span (control point c, weight rho) that follows junction j (reached by a span
     of control point c_prev, weight rho_prev, state prev; run_start: j is a corner, or the group
     opens there with rho_prev = 0) into out, and its blocks: 1 (it continues the run, or starts
     one at j), 2 (a double knot at j), 0 (the weights cannot carry it)."""
-    if not run_start:
-        lam = junction_lambda(c_prev, j, c)
-        if LAMBDA_MIN <= lam <= 1.0 - LAMBDA_MIN:
-            den = rho_prev * rho_prev - (1.0 - lam) * prev[X]
-            if den > 0.0:
-                x = lam * rho_prev * rho_prev / den
-                out[X] = x
-                out[LOG_W] = prev[LOG_E] + np.log(x)
-                out[LOG_H] = prev[LOG_H] + np.log((1.0 - lam) / lam) + out[LOG_W] - prev[LOG_W]
-                out[LOG_E] = prev[LOG_E] + 2.0 * np.log(x) - 2.0 * np.log(rho)
-                out[W_LO] = min(prev[W_LO], out[LOG_W], out[LOG_E])
-                out[W_HI] = max(prev[W_HI], out[LOG_W], out[LOG_E])
-                out[H_LO] = min(prev[H_LO], out[LOG_H])
-                out[H_HI] = max(prev[H_HI], out[LOG_H])
-                out[LOG_G] = prev[LOG_G] + out[LOG_H] - prev[LOG_H]
-                out[G_LO] = min(prev[G_LO], out[LOG_G])
-                out[G_HI] = max(prev[G_HI], out[LOG_G])
-                if (out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and out[H_HI] - out[H_LO] <= LOG_INTERVAL_SPREAD
-                        and out[G_HI] - out[G_LO] <= LOG_EVEN_SPREAD
-                        and abs(out[LOG_E] - prev[LOG_E]) <= LOG_SPAN_E_STEP):
-                    return 1
+    if not run_start and may_continue(c_prev, j, rho_prev, prev, c, out):
+        out[LOG_E] = prev[LOG_E] + 2.0 * np.log(out[X]) - 2.0 * np.log(rho)
+        out[W_LO] = min(out[W_LO], out[LOG_E])
+        out[W_HI] = max(out[W_HI], out[LOG_E])
+        if out[W_HI] - out[W_LO] <= LOG_WEIGHT_SPREAD and abs(out[LOG_E] - prev[LOG_E]) <= LOG_SPAN_E_STEP:
+            return 1
     if not _start_run(c_prev, j, rho_prev, prev, c, rho, out):
         return 0
     return 1 if run_start else 2
