@@ -23,6 +23,7 @@ from functools import partial
 import click
 
 from machine.commands import INPUT_FILE, OutputPath, refusal
+from machine.commands.compiling import Compiling
 
 
 def controller_check(config):
@@ -43,6 +44,12 @@ def fit_text(text: str, tol_mm: float, config, **options):
                         max_feed_mm_s=min(a.max_velocity_mm_s for a in config.axes),
                         reach_mm_s=math.sqrt(sum(a.max_velocity_mm_s**2 for a in config.axes)),
                         walkable=controller_check(config), **options)
+
+
+def _say_compiling(compiling: Compiling, on: bool) -> None:
+    """The fit's first compile, said once: a cold cache adds 1.5-2 minutes of CPU before anything is fitted."""
+    if on and compiling.total_s == 0:
+        click.echo(f"vcnc fit: {Compiling.COMPILING}; {Compiling.AHEAD}", err=True)
 
 
 def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
@@ -119,6 +126,7 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
     from ipr.entities import GCodeError
     from ipo.config import ConfigError, default_config, load_config
     from ipo.errors import IpoError
+    from machine.commands.warmup import load_fit_kernels
     from machine.workpiece.pair import cut_options
 
     if not tol_mm > 0:
@@ -136,20 +144,25 @@ def command(src: str, out: str, tol_mm: float, degree: int | None, corner_deg: f
         raise click.ClickException(f"machine file {machine}: {err}") from None
     with open(src, "rb") as f:
         text = f.read().decode("utf-8", "replace")
-    try:
-        result, report = fit_text(text, tol_mm, config, degree=degree, corner_deg=corner_deg, file=src, jobs=jobs,
-                                  dialect=dialect, arcs=arcs)
-    except GCodeError as err:
-        click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
-        sys.exit(1)
-    except IpoError as err:
-        raise refusal(err, src) from None
-    with open(out, "w", encoding="utf-8", newline="") as f:
-        f.write(result)
-    click.echo(f"{src} -> {out}")
-    click.echo(format_report(report, tol_mm, dialect))
-    if gains:
-        print_gains(src, out, machine, config, cut)
+    with Compiling() as compiling:  # a cold cache: said at the first compile, and its time at the end
+        compiling.on_change = partial(_say_compiling, compiling)
+        try:
+            load_fit_kernels()
+            result, report = fit_text(text, tol_mm, config, degree=degree, corner_deg=corner_deg, file=src,
+                                      jobs=jobs, dialect=dialect, arcs=arcs)
+        except GCodeError as err:
+            click.echo(f"{src}: the program has errors; fix them before fitting:\n{err}", err=True)
+            sys.exit(1)
+        except IpoError as err:
+            raise refusal(err, src) from None
+        with open(out, "w", encoding="utf-8", newline="") as f:
+            f.write(result)
+        click.echo(f"{src} -> {out}")
+        click.echo(format_report(report, tol_mm, dialect))
+        if gains:
+            print_gains(src, out, machine, config, cut)
+    if note := compiling.summary("fit"):
+        click.echo(note, err=True)
 
 
 def print_gains(src: str, out: str, machine: str | None, config, cut: dict | None) -> None:

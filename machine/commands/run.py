@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import json
 import sys
-import time
 
 import click
 
 from ipo.config import METHODS
 from machine.commands import INPUT_FILE, OutputPath, apply_planner, load_machine, planner_options
+from machine.commands.compiling import Compiling
 
 
 
@@ -74,44 +74,7 @@ def _run_realtime(controller, program):
         return controller.run(program, player=player)
 
 
-class _Compiling:
-    """Watches numba compile its kernels (a cache miss: the first run after an install or a
-    change of a kernel), so the progress display can say why nothing moves yet and the summary
-    can say how much of the wall time it took."""
-
-    RUNNING = "running"
-    COMPILING = "compiling numba kernels (first run only, cached afterwards)"
-
-    def __init__(self):
-        from numba.core import event
-
-        self._event = event
-        self.depth, self.t0, self.total_s = 0, 0.0, 0.0
-        self.on_change = lambda compiling: None
-        self.listener = type("L", (event.Listener,), {"on_start": lambda _, ev: self._start(),
-                                                       "on_end": lambda _, ev: self._end()})()
-
-    def _start(self):
-        self.depth += 1
-        if self.depth == 1:  # a kernel that calls others compiles them inside its own compile
-            self.t0 = time.perf_counter()
-            self.on_change(True)
-
-    def _end(self):
-        self.depth -= 1
-        if self.depth == 0:
-            self.total_s += time.perf_counter() - self.t0
-            self.on_change(False)
-
-    def __enter__(self):
-        self._event.register("numba:compile", self.listener)
-        return self
-
-    def __exit__(self, *exc):
-        self._event.unregister("numba:compile", self.listener)
-
-
-def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
+def _run_fast(controller, program, show_progress: bool, compiling: Compiling):
     if not show_progress:
         return controller.run(program)
     from rich.console import Console
@@ -121,9 +84,9 @@ def _run_fast(controller, program, show_progress: bool, compiling: _Compiling):
     with Progress(TextColumn("{task.description}"), BarColumn(),
                   TextColumn("line {task.completed:.0f}/{task.total:.0f}"),
                   TimeElapsedColumn(), console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(_Compiling.RUNNING, total=last_line)
+        task = bar.add_task(Compiling.RUNNING, total=last_line)
         compiling.on_change = lambda on: bar.update(
-            task, description=_Compiling.COMPILING if on else _Compiling.RUNNING)
+            task, description=Compiling.COMPILING if on else Compiling.RUNNING)
         return controller.run(program, progress=lambda line: bar.update(task, completed=line))
 
 
@@ -224,7 +187,7 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
     digest = DigestSink(meta, servo=servo) if plot_file or report_file else None  # memory bounded, unlike a trace
     controller.sinks = [s for s in (writer, digest, workpiece) if s is not None]
     try:
-        with _Compiling() as compiling:
+        with Compiling() as compiling:
             if realtime:
                 result = _run_realtime(controller, program)
             else:
@@ -233,9 +196,8 @@ def command(file, machine_file, period_ms, method, feed_override, trace_file, pl
         if writer is not None:
             writer.close()
     _print_summary(result, as_json)
-    if compiling.total_s > 0:
-        click.echo(f"numba compiled its kernels for {compiling.total_s:.1f} s of this run's wall time "
-                   f"(first run after an install or a change; cached for the next runs)", err=True)
+    if note := compiling.summary("run"):
+        click.echo(note, err=True)
     if result.state == "completed" and result.periods == 0:
         click.echo(f"{file}: the program commands no motion; nothing moved", err=True)
     surface = finish_workpiece(workpiece, result, surface_files) if workpiece is not None else None

@@ -92,7 +92,6 @@ def exercise(config) -> None:
     from ipo.interp.chord_study import study
     from ipr import parse_text
     from ipr.interpreter import SCAN_LINES
-    from machine.commands.fit import fit_text
     from machine.controller import Controller
     from machine.report.digest import DigestSink
 
@@ -116,5 +115,14 @@ def exercise(config) -> None:
         # the interpreter's kernels for long stretches of plain moves (ipr.plain_runs), which a
         # program as short as the one above does not reach
         parse_text("G21 G90 G0 X0 Y0\nG1 X1 F100\n" + " X2 Y1\n X1 Y2\n" * SCAN_LINES + "M2\n")
-        # `vcnc fit`'s kernels (its spans, deviation bounds and the controller's check of each group)
-        fit_text(FIT_WARMUP_PROGRAM, 0.01, config, jobs=1)
+        load_fit_kernels()
+
+
+def load_fit_kernels() -> None:
+    """`vcnc fit`'s kernels (its spans, deviation bounds and the controller's check of each group), compiled or
+    loaded in this process: FIT_WARMUP_PROGRAM fitted here on the default machine (the kernels are the same
+    on any). A fit's worker processes, forked after this, share them; on a cold cache each would compile them."""
+    from ipo.config import default_config
+    from machine.commands.fit import fit_text
+
+    fit_text(FIT_WARMUP_PROGRAM, 0.01, default_config(), jobs=1)
