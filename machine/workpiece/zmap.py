@@ -10,9 +10,9 @@ in program order.
 The rows are kept and handed in batches of HANDOFF_PERIODS to the removal thread, which cuts them in
 order while the run goes on (the kernels release the GIL; removal.py answers for a whole batch at once,
 so the larger the batch, the fewer times a node is revisited); a tool change hands over what is kept
-first, and `surface` hands over the rest and waits for the thread. The heights do not depend on where
-the batches end: a node is the float32 rounding of the minimum over every segment, and rounding is
-monotone. While the run goes on the thread cuts on one core (the run has the other); from the moment
+first, and `surface` hands over the rest and waits for the thread. Batches handed over while the thread
+was busy are joined before it cuts them (joined_batches). The heights do not depend on where the batches
+end: a node is the float32 rounding of the minimum over every segment, and rounding is monotone. While the run goes on the thread cuts on one core (the run has the other); from the moment
 `surface` is called, what is left is cut on every core, from the next chunk of blocks of the batch being
 cut (removal.cut asks between chunks). With `teeth` each write is cut at once, period by period
 (teeth.py), on the caller's thread.
@@ -20,6 +20,7 @@ cut (removal.cut asks between chunks). With `teeth` each write is cut at once, p
 from __future__ import annotations
 
 import os
+import threading
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
@@ -59,6 +60,23 @@ def available_cpus() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+def joined_batches(batches: list[Batch]) -> list[Batch]:
+    """The batches in order, each that continues the one before (its first position that one's last, the same
+    cutter) joined to it. Fewer batches revisit fewer nodes: on finish_g01.nc the removal thread is still
+    cutting the first batch when the run ends, and the second and the rest are then cut as one. The heights
+    do not depend on where the batches end (see the module's docstring)."""
+    out: list[Batch] = []
+    for batch in batches:
+        last = out[-1] if out else None
+        if (last is None or batch.stamp_first or (batch.core, batch.corner) != (last.core, last.corner)
+                or not np.array_equal(batch.pos[0], last.pos[-1])):
+            out.append(batch)
+            continue
+        out[-1] = Batch(np.concatenate((last.pos, batch.pos[1:])), np.concatenate((last.lines, batch.lines)),
+                        last.core, last.corner, last.stamp_first)
+    return out
+
+
 class Workpiece:
     """Stock, grid, cutter and the height field; `write(rows)` takes a batch of periods."""
 
@@ -82,6 +100,8 @@ class Workpiece:
         self._kept_periods = 0
         self._worker: ThreadPoolExecutor | None = None
         self._jobs: list[Future] = []
+        self._pending: list[Batch] = []  # handed to the removal thread and not yet begun (_cut_pending)
+        self._pending_lock = threading.Lock()
         self._finishing = False  # the run has ended: the removal thread may take every core
         # the removal's own time: the hand-offs on the caller's thread, the cuts on the removal thread
         self._caller_wall_s = self._caller_cpu_s = self._cut_wall_s = self._cut_cpu_s = 0.0
@@ -144,9 +164,19 @@ class Workpiece:
         batch = Batch(pos, lines, float(self.cutter.core_mm), float(self.cutter.corner_mm), not self._stamped)
         if self._worker is None:
             self._worker = ThreadPoolExecutor(1, thread_name_prefix="vcnc-removal")
-        self._jobs.append(self._worker.submit(self._cut, batch))
+        with self._pending_lock:
+            self._pending.append(batch)
+        self._jobs.append(self._worker.submit(self._cut_pending))
         self._stamped = True
         self._last = pos[-1:].copy()
+
+    def _cut_pending(self) -> None:
+        """On the removal thread: the batches handed over since it began the last, in order, those that continue
+        one another with one cutter as one batch (joined_batches)."""
+        with self._pending_lock:
+            batches, self._pending = self._pending, []
+        for batch in joined_batches(batches):
+            self._cut(batch)
 
     def _cut(self, batch: Batch) -> None:
         """On the removal thread."""

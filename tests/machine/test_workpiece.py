@@ -366,6 +366,23 @@ def test_the_removal_thread_leaves_the_heights_of_one_batch(tmp_path, monkeypatc
         assert np.array_equal(surfaces[handoff].z_mm, whole.z_mm)
 
 
+def test_batches_handed_over_while_the_removal_thread_was_busy_are_joined():
+    """Consecutive batches that continue one another with one cutter are cut as one: the whole path, its lines,
+    the first batch's stamp; a batch with another cutter, or one that starts elsewhere (another tool length),
+    stays apart."""
+    path = np.cumsum(np.random.default_rng(3).normal(0, 0.1, (12, 3)), axis=0)
+    lines = np.arange(1, 12, dtype=np.int32)
+    ball = (0.0, 1.0)
+    parts = [Batch(path[:4], lines[:3], *ball, True), Batch(path[3:8], lines[3:7], *ball, False),
+             Batch(path[7:10], lines[7:9], *ball, False)]
+    flat = Batch(path[9:11], lines[9:10], 1.0, 0.0, False)
+    longer = Batch(path[10:] - [0.0, 0.0, 0.5], lines[10:], 1.0, 0.0, False)
+    joined = zmap.joined_batches(parts + [flat, longer])
+    assert len(joined) == 3 and joined[1] is flat and joined[2] is longer
+    assert np.array_equal(joined[0].pos, path[:10]) and np.array_equal(joined[0].lines, lines[:9])
+    assert joined[0].stamp_first and (joined[0].core, joined[0].corner) == ball
+
+
 @pytest.mark.parametrize("compensation, depth_mm", [("G43 H2", 1.0), ("G49", 1.5), ("G43.1 Z0.3", 1.2)])
 def test_the_tip_cuts_where_the_tool_length_puts_it(tmp_path, compensation, depth_mm):
     """T2 is 0.5 mm long below the gauge line the machine positions: G43 H2 compensates it exactly (the
