@@ -14,9 +14,11 @@ STEP 3  Per tile, the listed runs its distance bound does not rule out (tiles.py
 STEP 4  Per tile, the runs passing closest first, then the others their planes do not rule out; per node,
         the exact envelopes of the few segments near where each run's bound is least (tiles.py).
 
-Blocks are independent: the threads take every other block of each chunk of CHUNK_BLOCKS (nogil
-kernels). The heights are those of evaluating every segment at every node, to the float32 rounding of
-the stored heights (tests/machine/test_workpiece.py checks it against the per-segment minimum).
+Blocks are independent: each thread takes the next block from a cursor the threads share (an atomic
+addition in the nogil kernel), so no thread waits for another before the batch's end; while one thread
+cuts alone, it looks between chunks of CHUNK_BLOCKS whether more may join. The heights are those of
+evaluating every segment at every node, to the float32 rounding of the stored heights
+(tests/machine/test_workpiece.py checks it against the per-segment minimum).
 """
 from __future__ import annotations
 
@@ -26,7 +28,8 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 from machine.workpiece.bounds import AX, AY, BX, BY, CORE, CORNER, run_table
 from machine.workpiece.chains import CHAIN_TOL_MM, MAX_SEGMENTS, build_chains
@@ -34,7 +37,17 @@ from machine.workpiece.envelope import seg_distance
 from machine.workpiece.tiles import TILE, Batch, ZMap, near_table, cut_tile, workspace
 
 BLOCK = 4  # tiles along a block's side
-CHUNK_BLOCKS = 64  # blocks cut between two looks at how many threads may cut
+CHUNK_BLOCKS = 16  # blocks one thread cuts between two looks at how many threads may cut
+
+
+@intrinsic
+def _take(typingctx, cursor):
+    """cursor[0] += 1 as one atomic operation (monotonic: the blocks share no node, and the threads' results
+    reach the caller through the pool's futures); returns the value before."""
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        return builder.atomic_rmw("add", data, context.get_constant(types.int64, 1), "monotonic")
+    return types.int64(cursor), codegen
 
 
 @njit(cache=True)
@@ -103,17 +116,21 @@ def plan(zm, bt):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
-    """STEP 3 and 4 over the given blocks (any subset: blocks share no node). Numpy's error model, for the
-    divisions of bounds.ball_bounds, inlined here: no check of each for a zero, so that its loop vectorizes
-    (no divisor in these kernels is zero)."""
+def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts, cursor, end):
+    """STEP 3 and 4 over blocks[cursor[0]:end], each block taken from the cursor (_take: the threads that
+    share it cut disjoint blocks, which share no node). Numpy's error model, for the divisions of
+    bounds.ball_bounds, inlined here: no check of each for a zero, so that its loop vectorizes (no divisor in
+    these kernels is zero)."""
     nty, ntx = zm.tile_max.shape
     nbx = -(-ntx // BLOCK)
     most = 0
     for u in range(blocks.shape[0]):
         most = max(most, offsets[blocks[u] + 1] - offsets[blocks[u]])
     ws = workspace(most)
-    for u in range(blocks.shape[0]):
+    while cursor[0] < end:
+        u = _take(cursor)
+        if u >= end:
+            break
         b = blocks[u]
         mine = listed[offsets[b]:offsets[b + 1]]
         near_table(mine, runs, ws.near)
@@ -127,37 +144,34 @@ def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts):
 def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int | Callable[[], int] = 1) -> float:
     """Lower zm.z along the batch's segments bt.pos[k] -> bt.pos[k+1]; zm.line[j, i] takes bt.lines[k] of the
     segment that set node (i, j). counts (COUNTS, updated): (block, run) pairs, searches, envelopes
-    evaluated, nodes lowered. threads: how many threads cut, or a callable asked again before each chunk of
-    CHUNK_BLOCKS blocks (the removal thread takes every core as soon as the run has ended, in the middle of
-    a batch). Returns the CPU seconds of the threads that cut (this one's and the pool's): the removal's
-    own, whatever else the process runs meanwhile."""
+    evaluated, nodes lowered. threads: how many threads cut, or a callable asked again after each chunk of
+    CHUNK_BLOCKS blocks this thread cuts alone (the removal thread takes every core as soon as the run has
+    ended, in the middle of a batch); once more than one, they cut to the batch's end, each taking the next
+    block from the cursor. Returns the CPU seconds of the threads that cut (this one's and the pool's): the
+    removal's own, whatever else the process runs meanwhile."""
     c0 = time.thread_time()
     starts, runs, offsets, listed, touched = plan(zm, bt)
-    tallies: list[np.ndarray] = []  # one per thread that has cut
-    pool: ThreadPoolExecutor | None = None
-    pool_size, pool_cpu_s = 0, 0.0
+    n = touched.shape[0]
+    cursor = np.zeros(1, np.int64)
+    tallies = [counts]  # one per thread: this one's, then the pool's
+    pool_cpu_s = 0.0
 
-    def cut_part(part: tuple[int, np.ndarray]) -> float:
+    def helper(tally: np.ndarray) -> float:
         t0 = time.thread_time()
-        cut_blocks(part[1], zm, bt, starts, runs, offsets, listed, tallies[part[0]])
+        cut_blocks(touched, zm, bt, starts, runs, offsets, listed, tally, cursor, n)
         return time.thread_time() - t0
 
-    try:
-        for b0 in range(0, touched.shape[0], CHUNK_BLOCKS):
-            chunk = touched[b0:b0 + CHUNK_BLOCKS]
-            k = min(max(int(threads() if callable(threads) else threads), 1), chunk.shape[0])
-            tallies += [np.zeros(counts.shape[0], np.int64) for _ in range(k - len(tallies))]
-            if k == 1:
-                cut_part((0, chunk))
-                continue
-            if pool_size < k:
-                if pool is not None:
-                    pool.shutdown()
-                pool, pool_size = ThreadPoolExecutor(k, thread_name_prefix="vcnc-cut"), k
-            pool_cpu_s += sum(pool.map(cut_part, [(p, np.ascontiguousarray(chunk[p::k])) for p in range(k)]))
-    finally:
-        if pool is not None:
-            pool.shutdown()
-    for tally in tallies:
+    while cursor[0] < n:
+        k = max(int(threads() if callable(threads) else threads), 1)
+        if k == 1:
+            end = min(cursor[0] + CHUNK_BLOCKS, n)
+            cut_blocks(touched, zm, bt, starts, runs, offsets, listed, counts, cursor, end)
+            continue
+        tallies += [np.zeros(counts.shape[0], np.int64) for _ in range(k - 1)]
+        with ThreadPoolExecutor(k - 1, thread_name_prefix="vcnc-cut") as pool:
+            helpers = [pool.submit(helper, tally) for tally in tallies[1:]]
+            cut_blocks(touched, zm, bt, starts, runs, offsets, listed, counts, cursor, n)
+            pool_cpu_s += sum(job.result() for job in helpers)
+    for tally in tallies[1:]:
         counts += tally
     return time.thread_time() - c0 + pool_cpu_s
