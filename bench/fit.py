@@ -9,15 +9,17 @@ programs/finish_g01.nc and a generated freeform (a 3-D spiral over a bump, 30000
 issue's 30k-line speed bar), each fitted as `vcnc fit` does (every group tabled by the
 controller's check; one it refuses stays G01):
 blocks and bytes before/after and their ratios, the largest deviation (checked on the
-curves as written), the fit time (wall clock, the controller's tables included, with the
-machine's 1-minute load average beside it: the machine is shared) and the cycle time on
+curves as written), the fit time (fit s: wall clock, the controller's tables included, with the
+machine's 1-minute load average beside it: the machine is shared; cpu s: the CPU time of the whole fit,
+interpretation included, this process's and its worker processes': about the same however busy the
+machine is, unlike the wall clock) and the cycle time on
 vcnc's controller (default machine, finish_machine.toml for the finishing program) before
 and after with its change, and the feed fluctuation (std/mean of the cutting feed). Blocks
 are counted as written: a G06.2 group is one block per control point plus its closing knot
 blocks, a G2/G3 arc or G1 line written for a run of G1 moves one block (ipo.fit.arcs).
 corpus: the proxy of the issue's hidden-programs median: every G01 program of the corpus
 (../shared/corpus/linuxcnc/g1_*.ngc, read in place; g1_stellabee1 whole: 169k lines) fitted whole at
-10 um and at 5 um (its block ratio and fit time beside: the issue's speed bar on whole programs), its blocks
+10 um and at 5 um (its block ratio and fit time, wall and CPU, beside: the issue's speed bar on whole programs), its blocks
 before/after and where they go (in groups: 5 blocks of opening and closing each, corners kept
 sharp, double knots where the weights restart, conic spans; arcs, lines: the G2/G3 and G1 blocks
 written each for a run of G1 moves (ipo.fit.arcs); kept: the other blocks outside groups, rapids
@@ -33,7 +35,7 @@ weights, and geomdl's non-rational `fitting.approximate_curve`.
 compare: `vcnc compare` on finish_g01.nc against finish_nurbs.nc.
 dir: every G-code file in --dir DIR (default: none, and then the part prints nothing), each fitted
 whole at 10 um as `vcnc fit --tol-mm 0.01` does (the default machine's limits and controller check):
-blocks before/after and their ratio, the largest deviation, the fit time, where the blocks go (as
+blocks before/after and their ratio, the largest deviation, the fit time (wall and CPU), where the blocks go (as
 in corpus) and why pieces stayed as written, and the median ratio over the files: the
 hidden-programs median measured on one's own programs. A file vcnc refuses is listed with its
 error and not counted.
@@ -43,6 +45,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import resource
 import sys
 import time
 from pathlib import Path
@@ -106,6 +109,13 @@ def programs(quick: bool) -> list[tuple[str, str, Path | None]]:
     return out
 
 
+def _cpu_s() -> float:
+    """CPU seconds of this process and of its worker processes that have ended (a fit joins its pool before
+    it returns): a fit's CPU time is the difference around it."""
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def _check(machine: Path | None):
     """vcnc fit's test of each group by the controller (a group it refuses stays G01)."""
     from machine.commands.fit import controller_check
@@ -131,13 +141,15 @@ def conversion_table(quick: bool, cycle: bool = True, jobs: int | None = None) -
     print("\n== G01/G2/G3 chains -> G06.2 (rational quadratic conic spans, the default) and G2/G3 arcs and G1 lines for"
           " runs within T of one, per program and tolerance")
     head = (f"{'program':40s} {'T um':>4s} {'blocks':>15s} {'x':>7s} {'bytes':>17s} {'x':>6s} "
-            f"{'max dev um':>10s} {'fit s':>6s} {'load':>5s} {'cycle s, change':>21s} {'fluct %':>13s}")
+            f"{'max dev um':>10s} {'fit s':>6s} {'cpu s':>6s} {'load':>5s} {'cycle s, change':>21s} {'fluct %':>13s}")
     print(head)
     with tempfile.TemporaryDirectory() as tmp:
         for name, text, machine in programs(quick):
             before = _cycle(text, machine, Path(tmp), "before.nc") if cycle else None
             for tol in TOLS_MM:
+                cpu = _cpu_s()
                 out, rep = convert_text(text, tol, file=name, jobs=jobs, walkable=_check(machine))
+                cpu = _cpu_s() - cpu
                 parse_text(out)  # the output must be a valid program
                 after = _cycle(out, machine, Path(tmp), "after.nc") if cycle else None
                 times = f"{before[0]:6.1f}->{after[0]:<6.1f} {100 * (after[0] / before[0] - 1):+5.1f}%" if cycle else "-"
@@ -145,7 +157,7 @@ def conversion_table(quick: bool, cycle: bool = True, jobs: int | None = None) -
                 print(f"{name:40s} {tol * 1e3:4.0f} {rep.blocks_before:>7d}->{rep.blocks_after:<7d} "
                       f"{rep.blocks_before / rep.blocks_after:7.3f} {rep.bytes_before:>8d}->{rep.bytes_after:<8d} "
                       f"{rep.bytes_before / rep.bytes_after:6.2f} {rep.max_deviation_mm * 1e3:10.3f} "
-                      f"{rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f} {times:>21s} {fluct:>13s}", flush=True)
+                      f"{rep.fit_time_s:6.1f} {cpu:6.1f} {os.getloadavg()[0]:5.1f} {times:>21s} {fluct:>13s}", flush=True)
                 assert rep.max_deviation_mm <= tol, "max deviation above tolerance"
 
 
@@ -155,15 +167,19 @@ def corpus_table(jobs: int | None = None) -> None:
     if not names:
         print(f"  no g1_*.ngc in {CORPUS}: skipped")
         return
-    print(f"{'program':24s} {'blocks':>17s} {'x':>7s} {'max dev um':>10s} {'fit s':>6s} {'load':>5s}  "
+    print(f"{'program':24s} {'blocks':>17s} {'x':>7s} {'max dev um':>10s} {'fit s':>6s} {'cpu s':>6s} {'load':>5s}  "
           f"{'in groups: open+close':>21s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'arcs':>5s} {'lines':>5s} "
-          f"{'kept':>6s} {'sharp v':>7s}  {'at 5 um: x':>10s} {'fit s':>6s}  in median")
+          f"{'kept':>6s} {'sharp v':>7s}  {'at 5 um: x':>10s} {'fit s':>6s} {'cpu s':>6s}  in median")
     ratios = []
     for name in names:
         text = (CORPUS / name).read_bytes().decode("utf-8", "replace")
+        cpu = _cpu_s()
         out, rep = convert_text(text, MEDIAN_TOL_MM, file=name, jobs=jobs, walkable=_check(None))
+        cpu = _cpu_s() - cpu
         parse_text(out)
+        fine_cpu = _cpu_s()
         fine = convert_text(text, FINE_TOL_MM, file=name, jobs=jobs, walkable=_check(None))[1]
+        fine_cpu = _cpu_s() - fine_cpu
         assert fine.max_deviation_mm <= FINE_TOL_MM, "max deviation above tolerance"
         ratio = rep.blocks_before / rep.blocks_after
         counted = name in FINISHING
@@ -172,11 +188,11 @@ def corpus_table(jobs: int | None = None) -> None:
         in_groups = _group_blocks(out)
         overhead = rep.groups * (1 + 1 + 3)  # G06.2 block; last control point and 3 closing knots (degree 2)
         print(f"{name:24s} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} {ratio:7.3f} "
-              f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f}  "
+              f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {cpu:6.1f} {os.getloadavg()[0]:5.1f}  "
               f"{rep.groups:>8d} x 5 = {overhead:<7d} {rep.sharp_corners:7d} {rep.double_knots:7d} "
               f"{in_groups - overhead - rep.sharp_corners - rep.double_knots:6d} {rep.arcs:5d} {rep.lines:5d} "
               f"{rep.blocks_after - in_groups - rep.arcs - rep.lines:6d} {rep.sharp_vertices:7d}  "
-              f"{fine.blocks_before / fine.blocks_after:10.3f} {fine.fit_time_s:6.1f}  "
+              f"{fine.blocks_before / fine.blocks_after:10.3f} {fine.fit_time_s:6.1f} {fine_cpu:6.1f}  "
               f"{'yes' if counted else 'no (not CAM finishing)'}", flush=True)
         assert rep.max_deviation_mm <= MEDIAN_TOL_MM, "max deviation above tolerance"
     if ratios:
@@ -240,7 +256,7 @@ def dir_table(directory: Path | None, jobs: int | None = None) -> None:
     files = sorted(p for p in directory.iterdir() if p.is_file() and p.suffix.lower() in GCODE_SUFFIXES)
     print(f"\n== G-code files in {directory}, whole, at {MEDIAN_TOL_MM * 1e3:.0f} um (as vcnc fit --tol-mm "
           f"{MEDIAN_TOL_MM}): your programs' median")
-    print(f"{'program':36s} {'blocks':>17s} {'x':>7s} {'max dev um':>10s} {'fit s':>6s} {'load':>5s}  "
+    print(f"{'program':36s} {'blocks':>17s} {'x':>7s} {'max dev um':>10s} {'fit s':>6s} {'cpu s':>6s} {'load':>5s}  "
           f"{'groups':>6s} {'corners':>7s} {'doubles':>7s} {'spans':>6s} {'arcs':>5s} {'lines':>5s} {'kept':>6s} "
           f"{'sharp v':>7s} "
           f"{'kept: no saving/refused/off':>27s}")
@@ -248,7 +264,9 @@ def dir_table(directory: Path | None, jobs: int | None = None) -> None:
     for path in files:
         text = path.read_bytes().decode("utf-8", "replace")
         try:
+            cpu = _cpu_s()
             out, rep = _fit_as_vcnc(text, MEDIAN_TOL_MM, str(path), jobs)
+            cpu = _cpu_s() - cpu
             parse_text(out)
         except (GCodeError, IpoError) as err:
             print(f"{path.name:36s} not fitted: {str(err).splitlines()[0]}", flush=True)
@@ -257,7 +275,7 @@ def dir_table(directory: Path | None, jobs: int | None = None) -> None:
         in_groups = _group_blocks(out)
         spans = in_groups - 5 * rep.groups - rep.sharp_corners - rep.double_knots
         print(f"{path.name:36s} {rep.blocks_before:>8d}->{rep.blocks_after:<8d} {ratios[-1]:7.3f} "
-              f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {os.getloadavg()[0]:5.1f}  "
+              f"{rep.max_deviation_mm * 1e3:10.3f} {rep.fit_time_s:6.1f} {cpu:6.1f} {os.getloadavg()[0]:5.1f}  "
               f"{rep.groups:6d} {rep.sharp_corners:7d} {rep.double_knots:7d} {spans:6d} {rep.arcs:5d} {rep.lines:5d} "
               f"{rep.blocks_after - in_groups - rep.arcs - rep.lines:6d} {rep.sharp_vertices:7d} "
               f"{_kept_why(rep.kept_g01):>27s}", flush=True)
