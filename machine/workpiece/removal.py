@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable
 
 import numpy as np
@@ -141,16 +141,25 @@ def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts, cursor, en
                 cut_tile(ty, tx, zm, bt, starts, runs, mine, ws, counts)
 
 
-def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int | Callable[[], int] = 1) -> float:
+def timed_plan(zm: ZMap, bt: Batch) -> tuple[tuple, float]:
+    """(plan(zm, bt), the CPU seconds it took on this thread), for a plan made ahead on another thread."""
+    c0 = time.thread_time()
+    return plan(zm, bt), time.thread_time() - c0
+
+
+def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int | Callable[[], int] = 1,
+        planned: Future | None = None) -> float:
     """Lower zm.z along the batch's segments bt.pos[k] -> bt.pos[k+1]; zm.line[j, i] takes bt.lines[k] of the
     segment that set node (i, j). counts (COUNTS, updated): (block, run) pairs, searches, envelopes
     evaluated, nodes lowered. threads: how many threads cut, or a callable asked again after each chunk of
     CHUNK_BLOCKS blocks this thread cuts alone (the removal thread takes every core as soon as the run has
     ended, in the middle of a batch); once more than one, they cut to the batch's end, each taking the next
     block from the cursor. Returns the CPU seconds of the threads that cut (this one's and the pool's): the
-    removal's own, whatever else the process runs meanwhile."""
+    removal's own, whatever else the process runs meanwhile. planned: the batch's timed_plan, made ahead on
+    another thread (its CPU time is counted too)."""
     c0 = time.thread_time()
-    starts, runs, offsets, listed, touched = plan(zm, bt)
+    (starts, runs, offsets, listed, touched), plan_cpu_s = (planned.result() if planned is not None
+                                                                   else (plan(zm, bt), 0.0))
     n = touched.shape[0]
     cursor = np.zeros(1, np.int64)
     tallies = [counts]  # one per thread: this one's, then the pool's
@@ -174,4 +183,4 @@ def cut(zm: ZMap, bt: Batch, counts: np.ndarray, threads: int | Callable[[], int
             pool_cpu_s += sum(job.result() for job in helpers)
     for tally in tallies[1:]:
         counts += tally
-    return time.thread_time() - c0 + pool_cpu_s
+    return time.thread_time() - c0 + pool_cpu_s + plan_cpu_s
