@@ -5,6 +5,7 @@ import dataclasses
 import itertools
 import json
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -364,6 +365,28 @@ def test_the_removal_thread_leaves_the_heights_of_one_batch(tmp_path, monkeypatc
     assert whole.z_mm.min() < -0.6  # the flat T2's ramp cut after the change (the raster is 0.5 deep)
     for handoff in (150, 1):
         assert np.array_equal(surfaces[handoff].z_mm, whole.z_mm)
+
+
+def test_a_batch_planned_ahead_on_another_thread_is_cut_the_same():
+    """removal.cut with the batch's plan made ahead (removal.timed_plan on a thread of its own, as zmap does when
+    the run ends) gives the bits of the plan made in cut, lines included, and counts the plan's CPU time."""
+    path = np.round(np.cumsum(np.random.default_rng(5).normal(0, 0.05, (300, 3)), axis=0) + [2.0, 2.0, -0.5], 3)
+    lines = np.arange(1, len(path), dtype=np.int32)
+    results = []
+    for ahead in (False, True):
+        zm = ZMap(np.zeros((80, 80), np.float32), np.zeros((80, 80), np.int32), np.zeros((10, 10)), 0.0, 0.0, 0.05,
+                  -2.0)
+        batch = Batch(path, lines, 0.0, 1.0013, True)
+        planned = None
+        if ahead:
+            with ThreadPoolExecutor(1) as planner:
+                planned = planner.submit(removal.timed_plan, zm, batch)
+                planned.result()
+        cpu_s = cut_batch(zm, batch, np.zeros(COUNTS, np.int64), 1, planned)
+        assert cpu_s >= (planned.result()[1] if ahead else 0.0)
+        results.append((zm.z, zm.line))
+    assert np.array_equal(results[0][0], results[1][0]) and np.array_equal(results[0][1], results[1][1])
+    assert (results[0][1] > 0).any()  # the path cut the stock
 
 
 def test_batches_handed_over_while_the_removal_thread_was_busy_are_joined():
