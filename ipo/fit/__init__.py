@@ -14,14 +14,15 @@
   written blocks, a shortest path over the junctions, compiled), `weights` (the spans' weights
   and knots joined into one rational quadratic B-spline), `quadratic` (the plan walked back into
   groups and kept moves).
-- `arcs`: a run of G1 moves as one G1 line or G2/G3 arc within the tolerance (exact test), the
-  block that writes it and its path as written; the conic plan weighs it against groups.
+- `arcs`: a run of G1 moves as one G1 line or G2/G3 arc (in the principal plane the run lies in)
+  within the tolerance (exact test), the block that writes it and its path as written; the conic
+  plan weighs it against groups.
 - `move_runs`: a stretch of G1 moves outside groups as the fewest such moves, their junctions
   anywhere on its segments (a shortest path over points at 1/32 of each).
 - `distance`: the two-way distance between a written curve and the path it replaces, bounded
   from above (the check of the curve as written).
 - `convert`: `vcnc fit`'s program rewriting (chains found, planned in parallel, written back).
-- `modal_text`: the motion code and feed a block after a group or written arc relies on, restored.
+- `modal_text`: the motion code, feed and plane a block after a group or written arc relies on, restored.
 - `written`: a fit as the G06.2 or G5.2 blocks that write it, and the curve exactly as written.
 
 May import: ipo.errors, ipo.numpy_kernels, ipo.nurbs, ipr, numpy, numba.

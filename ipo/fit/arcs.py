@@ -1,8 +1,12 @@
 """A run of G1 moves as one move: a G1 line or a G2/G3 arc within the tolerance of it both ways.
 
 CAM output writes lines and fillets as G1 chords; a stretch whose vertices lie within tol of
-one line, or of one circle in the program's plane (G17/G18/G19), is one block as a G1 line or
-a G2/G3 arc, where a G06.2 group would cost its opening and closing blocks as well. The plan
+one line, or of one circle in a principal plane, is one block as a G1 line or a G2/G3 arc, where
+a G06.2 group would cost its opening and closing blocks as well. The plane is the program's
+(G17/G18/G19) where the run lies in it, else the other one it lies in: the passes of a raster
+finish run in vertical planes (ipo.fit.convert writes such an arc with its plane code and gives
+the program its own back after it; on LinuxCNC's 3D_Chips at 10 um, YZ passes in a G17 program:
+1774 -> 1365 written blocks). The plan
 (ipo.fit.conic_plan) weighs these moves against the groups and the moves kept as written.
 
 The circle passes through the run's two ends (the arc starts where the machine is and ends on
@@ -40,6 +44,8 @@ from ipr.arcs import make_arc
 from ipr.entities import CONTINUOUS, PLANE_AXES, Arc
 
 NONE, STRAIGHT, ARC = 0, 1, 2
+NORMAL_PLANE = {n: plane for plane, (_, _, n) in PLANE_AXES.items()}  # normal axis -> plane (XY, ZX, YZ)
+PLANE_CODE = {"XY": "G17", "ZX": "G18", "YZ": "G19"}
 MAX_SWEEP_RAD = math.radians(150.0)  # an arc's conic check (weight cos(sweep / 2)) stays well conditioned
 MAX_RADIUS_MM = 1.0e4  # beyond this a run that is not straight within tol is left to the groups
 CENTRE_LETTERS = "IJK"
@@ -48,11 +54,27 @@ MINIMAX_STEPS = 30
 
 
 @njit(cache=True)
+def flat_normal(q, v, w, nrm):
+    """The normal axis of the principal plane an arc through q[v..w] lies in: nrm (the program's plane's)
+    where the points keep its coordinate, else the first other axis they keep; -1 if none."""
+    for n in (nrm, 0, 1, 2):
+        flat = True
+        for i in range(v + 1, w + 1):
+            if q[i, n] != q[v, n]:
+                flat = False
+                break
+        if flat:
+            return n
+    return -1
+
+
+@njit(cache=True)
 def one_move(q, v, w, a, b, nrm, tol_mm, centre):
     """Can points q[v..w] be one move within tol_mm both ways (module doc)? NONE, STRAIGHT or ARC;
     for ARC the centre (mm, its normal coordinate the run's) goes into centre[:3]. a, b, nrm: the
-    plane's axes (ipr.entities.PLANE_AXES), the arc runs counter-clockwise where the centre lies
-    left of the chord q[v] -> q[w] (seen in a, b)."""
+    program's plane's axes (ipr.entities.PLANE_AXES); the arc lies in the plane flat_normal finds
+    (the program's where it can), and runs counter-clockwise where the centre lies left of the chord
+    q[v] -> q[w] (seen in that plane's a, b)."""
     d0, d1, d2 = q[w, 0] - q[v, 0], q[w, 1] - q[v, 1], q[w, 2] - q[v, 2]
     length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if length == 0.0:
@@ -69,9 +91,10 @@ def one_move(q, v, w, a, b, nrm, tol_mm, centre):
         prev = s
     if straight:
         return STRAIGHT
-    for i in range(v + 1, w + 1):
-        if q[i, nrm] != q[v, nrm]:
-            return NONE
+    nrm = flat_normal(q, v, w, nrm)
+    if nrm < 0:
+        return NONE
+    a, b = (nrm + 1) % 3, (nrm + 2) % 3  # the plane of that normal (PLANE_AXES)
     half = 0.5 * math.hypot(q[w, a] - q[v, a], q[w, b] - q[v, b])
     if half == 0.0:
         return NONE
@@ -206,13 +229,16 @@ class OneMove:
 
 
 def fit_move(path: np.ndarray, plane: str, tol_mm: float, vertex_end: bool = True) -> OneMove:
-    """The move one_move finds for the polyline path (the plan's choice, found again)."""
+    """The move one_move finds for the polyline path in a program of plane `plane` (the plan's choice,
+    found again; an arc in the plane it lies in)."""
     a, b, nrm = PLANE_AXES[plane]
     centre = np.empty(3)
     kind = one_move(path, 0, len(path) - 1, a, b, nrm, tol_mm, centre)
     if kind == NONE:
         raise ValueError(f"the {len(path)} points are not one move within {tol_mm} mm")
-    return OneMove(path, plane, centre if kind == ARC else None, vertex_end)
+    if kind == STRAIGHT:
+        return OneMove(path, plane, None, vertex_end)
+    return OneMove(path, NORMAL_PLANE[flat_normal(path, 0, len(path) - 1, nrm)], centre, vertex_end)
 
 
 def _words(values_mm: np.ndarray, digits: int) -> list[str]:

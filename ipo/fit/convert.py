@@ -27,11 +27,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ipo.errors import FIT_SETTINGS, IpoError
-from ipo.fit.arcs import move_text
+from ipo.fit.arcs import PLANE_CODE, move_text
 from ipo.fit.chains import DEFAULT_CORNER_DEG, Chain, split_chains, sub_chain
 from ipo.fit.distance import written_deviation_mm
 from ipo.fit.groups import FitOptions, Span, plan_chain, sharp_of
-from ipo.fit.modal_text import motion_code, restore_cost, restore_motion, restored, with_feed
+from ipo.fit.modal_text import (motion_code, restore_cost, restore_motion, restore_plane, restored, with_feed,
+                                with_plane)
 from ipo.fit.quadratic import plan_chain_conic
 from ipo.fit.written import Frame, coordinate_digits, feed_text, g52_text, group_text, rounding_bound_mm
 from ipr import Setup, parse_line
@@ -146,6 +147,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
     replaced: dict[int, list[str]] = {}  # first source line of a chain -> its new text
     skip: set[int] = set()
     prefix: dict[int, str] = {}  # source line -> the motion code it needs after a group
+    planes: dict[int, str] = {}  # source line -> the plane code it needs after an arc in another plane
     after: dict[int, list[str]] = {}  # source line -> blocks written after it
     t0 = time.perf_counter()
     chains = [c for c in split_chains(entities, tol_mm, joinable, reach) if c.moves[0].line in pure]
@@ -169,7 +171,7 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
         pass
     for chain, spans, groups in zip(chains, plans, written):
         frame = frames[chain.moves[0].line]
-        new, tail, tail_feed_mm_s = _convert_chain(chain, spans, groups, lines, frame, report)
+        new, tail, tail_feed_mm_s, tail_plane = _convert_chain(chain, spans, groups, lines, frame, report)
         if new is None:
             continue
         replaced[chain.moves[0].line] = new
@@ -178,15 +180,18 @@ def convert_text(text: str, tol_mm: float, *, degree: int | None = None, corner_
         feed = None if last.feed_mm_s == tail_feed_mm_s else feed_text(last.feed_mm_s, frame)
         if tail != motion_code(last) or feed is not None:  # a group, an arc, or moves at the lowest feed
             restore_motion(lines, last.line, motion_code(last), feed, after, prefix)
+        if tail_plane != frame.plane:  # an arc in another plane ends the chain
+            restore_plane(lines, last.line, PLANE_CODE[frame.plane], after, planes)
     report.fit_time_s = time.perf_counter() - t0
     out: list[str] = []
     for n, raw in enumerate(lines, 1):
         if n in replaced:
             new = replaced[n]
             # a chain that starts with a kept move right after a group ending the previous chain
-            out += [restored(new[0], *prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
+            new = [restored(new[0], *prefix[n])] + new[1:] if n in prefix and new[0] == raw else new
+            out += [_planed(new[0], planes.get(n))] + new[1:]
         elif n not in skip:
-            out.append(restored(raw, *prefix[n]) if n in prefix else raw)
+            out.append(_planed(restored(raw, *prefix[n]) if n in prefix else raw, planes.get(n)))
         out += after.get(n, [])
     result = "\n".join(out)
     report.bytes_after = len(result.encode())
@@ -296,15 +301,18 @@ GROUP = "group"
 
 
 def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None], lines: list[str], frame: Frame,
-                   report: ConvertReport) -> tuple[list[str] | None, str | None, float | None]:
+                   report: ConvertReport) -> tuple[list[str] | None, str | None, float | None, str | None]:
     """New text for one chain from its spans and their groups and moves as written (None if it stays as it
-    is), the motion in force after it: GROUP (none) or a motion code, and the feed (mm/s) in force after it.
-    Groups and moves written for runs of G1 moves take the lowest feed of the moves they replace (feeds
-    differ in a chain only beyond the machine's reach); a kept move after them gets its own back."""
+    is), the motion in force after it: GROUP (none) or a motion code, the feed (mm/s) and the plane in force
+    after it. Groups and moves written for runs of G1 moves take the lowest feed of the moves they replace
+    (feeds differ in a chain only beyond the machine's reach); a kept move after them gets its own back.
+    An arc written in another plane than the program's carries its plane code, and the next arc the program's
+    (groups and G1 moves do not depend on it)."""
     out: list[str] = []
     mode: str | None = None  # the motion in force after what was written (GROUP: none)
     changed = False
     feed_mm_s = None  # the feed in force where this text has set it (the chain's first block may carry it)
+    plane = frame.plane  # the plane in force after what was written
     for span, written in zip(spans, groups):
         moves = chain.moves[span.first:span.last]
         group = _group_for(written, moves[0].line, report) if written is not None else None
@@ -315,13 +323,20 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
                 src[0] = restored(src[0], motion_code(moves[0]), feed)
             elif changed and moves[0].feed_mm_s != feed_mm_s:
                 src[0] = with_feed(src[0], feed_text(moves[0].feed_mm_s, frame))
+            arc = next((k for k, m in enumerate(moves) if isinstance(m, Arc)), None)  # the first to need a plane
+            if plane != frame.plane and arc is not None:
+                src[arc], plane = _planed(src[arc], PLANE_CODE[frame.plane]), frame.plane
             out += src
             if span.kept:
                 report.kept_g01.append((moves[0].line, NO_SAVING))
             mode, feed_mm_s = motion_code(moves[-1]), moves[-1].feed_mm_s
         elif span.one_moves:
             feed = _lowest_feed(moves)
-            out += [group[0] if feed == feed_mm_s else with_feed(group[0], feed_text(feed, frame))] + group[1:]
+            blocks = [group[0] if feed == feed_mm_s else with_feed(group[0], feed_text(feed, frame))] + group[1:]
+            for k, move in enumerate(span.one_moves):
+                if move.centre_mm is not None and move.plane != plane:
+                    blocks[k], plane = _planed(blocks[k], PLANE_CODE[move.plane]), move.plane
+            out += blocks
             changed = True
             mode, feed_mm_s = span.one_moves[-1].code, feed
             report.feeds_merged += sum(a.feed_mm_s != b.feed_mm_s for a, b in zip(moves, moves[1:]))
@@ -339,8 +354,18 @@ def _convert_chain(chain: Chain, spans: list[Span], groups: list[_Written | None
             report.sharp_corners += span.corners()
             report.double_knots += span.double_knots
     if not changed:
-        return None, None, None
-    return out, mode, feed_mm_s
+        return None, None, None, None
+    return out, mode, feed_mm_s, plane
+
+
+def _planed(text: str, code: str | None) -> str:
+    """A motion block (or the block restore_plane chose) with the plane code `code` (None: as it is)."""
+    if code is None:
+        return text
+    out = with_plane(text, code)
+    if out is None:
+        raise ValueError(f"a block that cannot carry {code}: {text!r}")
+    return out
 
 
 def _lowest_feed(moves) -> float:

@@ -1,9 +1,10 @@
-"""The program's text around what vcnc fit writes: the motion mode (G1/G2/G3) and feed a block after a
-group or a written arc relies on, restored on that block or on one of its own.
+"""The program's text around what vcnc fit writes: the motion mode (G1/G2/G3), feed and plane a block
+after a group or a written arc relies on, restored on that block or on one of its own.
 
 A G06.2 group leaves no motion mode active and may leave another feed; a G2/G3 arc written for a run of
 G1 moves leaves G2/G3 active. The next block that relies on the modal motion (axis words without a
-motion code of their own) gets the code the program had there.
+motion code of their own) gets the code the program had there. An arc written in a plane other than
+the program's (ipo.fit.arcs) leaves that plane active: the next block gets the program's plane code.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from ipr import parse_line
 from ipr.entities import Line
 
 AXIS_LETTERS = frozenset("XYZ")
+PLANE_G = frozenset({17.0, 18.0, 19.0})
 # G codes that use axis words without needing a motion mode (they carry their own meaning)
 OWN_AXIS_G = frozenset({0.0, 1.0, 2.0, 3.0, 5.2, 6.2, 10.0, 28.0, 30.0, 92.0})
 _N_WORD = re.compile(r"^\s*(N\s*\d+)\s*", re.IGNORECASE)
@@ -80,3 +82,29 @@ def restore_motion(lines: list[str], last: int, code: str, feed: str | None, aft
         prefix[last + 1] = (code, feed)
     else:
         after[last] = [code if feed is None else f"{code} F{feed}"]
+
+
+def with_plane(text: str, code: str) -> str | None:
+    """The block with the plane code `code` (after its N word); the block itself where it sets a plane of
+    its own; None where it cannot carry one (no words, an O word, an assignment, block delete, '%')."""
+    block = parse_line(text)
+    if not block.words or block.assigns or block.delete or block.percent or any(l == "O" for l, _ in block.words):
+        return None
+    if any(l == "G" and v in PLANE_G for l, v in block.words):
+        return text
+    m = _N_WORD.match(text)
+    return f"{m.group(1)} {code} {text[m.end():]}" if m else f"{code} {text.lstrip()}"
+
+
+def restore_plane(lines: list[str], last: int, code: str, after: dict, planes: dict) -> None:
+    """After a chain that ends with the program's plane not in force: the next block (past lines without
+    words: comments, blank lines) gets its code `code` (planes: source line -> code), or where it cannot
+    carry it, a block of its own right after source line `last`."""
+    for k in range(last, len(lines)):
+        block = parse_line(lines[k])
+        if block.words or block.assigns or block.delete or block.percent:
+            if with_plane(lines[k], code) is not None:
+                planes[k + 1] = code
+                return
+            break
+    after.setdefault(last, []).insert(0, code)

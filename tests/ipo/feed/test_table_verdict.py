@@ -35,7 +35,8 @@ def _arrays(part: Nurbs):
 
 
 def _degree2_parts() -> list[Nurbs]:
-    fitted, _ = convert_text(_relief_raster(), 0.01, jobs=1)
+    # groups only: the passes lie in XZ planes, which the fit would otherwise write as G18 arcs
+    fitted, _ = convert_text(_relief_raster(), 0.01, jobs=1, arcs=False)
     groups = [e for text in (fitted, STEEP_PROGRAM) for e in parse_text(text).entities if isinstance(e, Nurbs)]
     assert len(groups) >= 2
     return [p for g in groups for p in corner_parts(g) if isinstance(p, Nurbs) and p.degree == 2]

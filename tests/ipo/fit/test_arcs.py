@@ -156,6 +156,59 @@ def test_linuxcnc_reads_the_arcs_as_vcnc_does(tmp_path):
                                    rtol=0)
 
 
+def _cross_plane_program(program_plane: str, run_plane: str) -> str:
+    """A program in program_plane whose run of G1 chords lies in run_plane (a raster pass in a vertical
+    plane), then a comment line and an arc of the program's own plane that needs it in force."""
+    pts = _fillet_profile(run_plane)
+    words = [f"X{p[0]:.4f} Y{p[1]:.4f} Z{p[2]:.4f}" for p in pts]
+    a, b, _ = PLANE_AXES[program_plane]
+    end = pts[-1].copy()
+    end[a] += 2.0
+    centre = {"XY": "I1 J0", "ZX": "K1 I0", "YZ": "J1 K0"}[program_plane]
+    code = {"XY": "G17", "ZX": "G18", "YZ": "G19"}[program_plane]
+    return "\n".join([f"G21 G90 {code}", f"G0 {words[0]}", f"G1 {words[1]} F600", *words[2:], "(a comment)",
+                      f"N90 G2 X{end[0]:.4f} Y{end[1]:.4f} Z{end[2]:.4f} {centre}", "M2", ""])
+
+
+@pytest.mark.parametrize("program_plane, run_plane", [("XY", "ZX"), ("XY", "YZ"), ("ZX", "XY")])
+def test_a_run_in_another_plane_is_an_arc_in_that_plane_and_the_programs_plane_comes_back(program_plane,
+                                                                                         run_plane):
+    # the fillets are arcs in the run's plane (written with its code), within tol both ways by brute force; the
+    # program's own arc after them is read in the program's plane again, the same arc as in the source
+    src = _cross_plane_program(program_plane, run_plane)
+    out, rep = convert_text(src, 0.01, jobs=1)
+    before, after = parse_text(src).entities, parse_text(out).entities
+    fitted = [e for e in after if isinstance(e, Arc)][:-1]
+    assert rep.arcs == len(fitted) == 2 and all(e.plane == run_plane for e in fitted)
+    assert rep.blocks_after == count_blocks(out) < rep.blocks_before - 20
+    assert _both_ways(before, after) <= 0.01 * 1.001
+    theirs, ours = before[-2], after[-2]
+    assert isinstance(ours, Arc) and ours.plane == theirs.plane == program_plane
+    assert ours.start == theirs.start and ours.end == theirs.end and ours.center == theirs.center
+    assert ours.ccw == theirs.ccw
+
+
+def test_linuxcnc_reads_arcs_in_another_plane_as_vcnc_does(tmp_path):
+    from rs274 import canon_moves, require_rs274, run_rs274
+
+    require_rs274()
+    for planes in (("XY", "ZX"), ("XY", "YZ"), ("ZX", "XY")):
+        out, rep = convert_text(_cross_plane_program(*planes), 0.01, jobs=1)
+        assert rep.arcs == 2
+        path = tmp_path / "fitted.ngc"
+        path.write_text(out)
+        theirs = [m for m in canon_moves(run_rs274(path)) if m.kind != "rapid"]
+        ours = [e for e in parse_text(out).entities if isinstance(e, (Line, Arc))]
+        assert [m.kind for m in theirs] == ["arc" if isinstance(e, Arc) else "line" for e in ours], planes
+        for m, e in zip(theirs, ours):
+            assert np.allclose(m.end_mm, e.end, atol=2 * m.tol_mm, rtol=0), planes
+            if isinstance(e, Arc):
+                a, b, _ = PLANE_AXES[e.plane]
+                assert m.plane == e.plane and m.rotation == (1 if e.ccw else -1), planes
+                assert np.allclose(np.array(m.center_mm)[[a, b]], np.array(e.center)[[a, b]], atol=2 * m.tol_mm,
+                                   rtol=0)
+
+
 @pytest.mark.parametrize("sweep_deg, helix", [(300.0, False), (360.0, False), (120.0, True)])
 def test_no_full_circle_no_arc_over_180_degrees_no_helix(sweep_deg, helix):
     t = np.radians(np.linspace(0.0, sweep_deg, 121))
