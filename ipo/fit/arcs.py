@@ -113,6 +113,8 @@ def one_move(q, v, w, a, b, nrm, tol_mm, centre):
         return NONE
     t = num / (2.0 * den)
     if not _arc_fits(q, v, w, a, b, ma + t * na, mb + t * nb, half, t, tol_mm):
+        if not _may_fit(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm):
+            return NONE
         t = _minimax_offset(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm)
         if not _arc_fits(q, v, w, a, b, ma + t * na, mb + t * nb, half, t, tol_mm):
             return NONE
@@ -173,12 +175,50 @@ def _radial_error(q, v, w, a, b, ma, mb, na, nb, half, kappa):
 
 
 @njit(cache=True)
-def _minimax_offset(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm):
-    """The centre's offset t from the chord with the least _radial_error, by golden section over the
-    curvature around that of t (the middle of the arc moves by MINIMAX_BULGE tol either way)."""
+def _kappa_range(half, t, tol_mm):
+    """The signed curvatures _minimax_offset searches around that of the centre offset t: the middle of
+    the arc moves by MINIMAX_BULGE tol either way."""
     kappa = math.copysign(1.0, t) / math.hypot(half, t)
     reach = 2.0 * MINIMAX_BULGE * tol_mm / (half * half)
-    lo, hi = kappa - reach, kappa + reach
+    return kappa - reach, kappa + reach
+
+
+@njit(cache=True)
+def _may_fit(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm):
+    """False only where no circle of _kappa_range keeps every inner vertex within tol_mm radially (so
+    _minimax_offset's would fail _arc_fits): a vertex at (x, y) in the chord's frame is |p - c| - r =
+    L / (|p - c| + r) from the circle of centre offset s, L = x^2 + y^2 - half^2 - 2 y s linear in s, so
+    within tol only if |L| <= tol (2 r + tol): an interval of s per vertex, none shared, no circle."""
+    lo, hi = _kappa_range(half, t, tol_mm)
+    if lo <= 0.0 <= hi:  # nearly straight: the offsets are unbounded
+        return True
+    sense = 1.0 if lo > 0.0 else -1.0
+    r_max = 1.0 / min(abs(lo), abs(hi))
+    r_min = max(1.0 / max(abs(lo), abs(hi)), half)
+    s0, s1 = sense * math.sqrt(r_min * r_min - half * half), sense * math.sqrt(r_max * r_max - half * half)
+    s_lo, s_hi = min(s0, s1), max(s0, s1)
+    bound = tol_mm * (2.0 * r_max + tol_mm) * (1.0 + 1e-7) + 1e-9  # a margin over rounding: never prunes a fit
+    ua, ub = nb, -na
+    for i in range(v + 1, w):
+        x = (q[i, a] - ma) * ua + (q[i, b] - mb) * ub
+        y = (q[i, a] - ma) * na + (q[i, b] - mb) * nb
+        c = x * x + y * y - half * half
+        if y == 0.0:
+            if abs(c) > bound:
+                return False
+            continue
+        e0, e1 = (c - bound) / (2.0 * y), (c + bound) / (2.0 * y)
+        s_lo, s_hi = max(s_lo, min(e0, e1)), min(s_hi, max(e0, e1))
+        if s_lo > s_hi:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _minimax_offset(q, v, w, a, b, ma, mb, na, nb, half, t, tol_mm):
+    """The centre's offset t from the chord with the least _radial_error, by golden section over the
+    curvature of _kappa_range."""
+    lo, hi = _kappa_range(half, t, tol_mm)
     g = (math.sqrt(5.0) - 1.0) / 2.0
     x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
     f1 = _radial_error(q, v, w, a, b, ma, mb, na, nb, half, x1)

@@ -73,6 +73,34 @@ def test_one_move_is_within_tolerance_both_ways_by_brute_force(plane):
     assert min(found.values()) >= 10, found
 
 
+def test_the_minimax_is_skipped_only_where_no_circle_of_its_range_fits():
+    # arcs._may_fit against a brute-force scan of the curvatures _minimax_offset searches: where it says no,
+    # no circle through the run's ends keeps every inner vertex within tol radially
+    from ipo.fit.arcs import _kappa_range, _may_fit
+
+    tol = 0.01
+    rng = np.random.default_rng(7)
+    skipped = 0
+    for _ in range(300):
+        q = _noisy_run(rng, "XY", tol)
+        q[1:-1, :2] += rng.normal(0.0, rng.choice([0.2, 1.0, 4.0]) * tol, (len(q) - 2, 2))
+        half = 0.5 * np.hypot(*(q[-1, :2] - q[0, :2]))
+        m = 0.5 * (q[0, :2] + q[-1, :2])
+        u = (q[-1, :2] - q[0, :2]) / (2.0 * half)
+        nrm = np.array([-u[1], u[0]])
+        t = rng.uniform(-3.0, 3.0) * half * rng.choice([1.0, 10.0, 100.0])
+        if _may_fit(q, 0, len(q) - 1, 0, 1, m[0], m[1], nrm[0], nrm[1], half, t, tol):
+            continue
+        skipped += 1
+        lo, hi = _kappa_range(half, t, tol)
+        kappa = np.linspace(lo, hi, 4001)
+        r = np.maximum(1.0 / np.abs(kappa), half)
+        centres = m + np.copysign(np.sqrt(r * r - half * half), kappa)[:, None] * nrm
+        err = np.abs(np.linalg.norm(q[None, 1:-1, :2] - centres[:, None], axis=2) - r[:, None]).max(axis=1)
+        assert err.min() > tol
+    assert skipped >= 30
+
+
 def _fillet_profile(plane: str, n_chord: int = 12) -> np.ndarray:
     """A profile in the plane: a line, a 90 degree fillet R5 as chords, a line, a 60 degree fillet R8."""
     a, b, n = PLANE_AXES[plane]
