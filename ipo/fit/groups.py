@@ -40,7 +40,7 @@ class FitOptions:
     corner_deg: float
     joins: bool = True  # pieces may share a group (G06.2); False: each fitted piece is its own (G5.2)
     restore_blocks: int = 1  # a block restoring G1/G2/G3 after a group that ends the chain (0 or 1)
-    plane: str = "XY"  # the program's plane there (G17/G18/G19): arcs are written in it
+    plane: str = "XY"  # the program's plane there (G17/G18/G19): arcs are written in it where the run lies in it
     arcs: bool = True  # runs of G1 moves may be written as one G1 line or G2/G3 arc (ipo.fit.arcs; G06.2 only)
 
 
