@@ -3,8 +3,8 @@
 Fits every chain of G1/G2/G3 moves (ipo.fit.chains: corners do not end a chain; sharp
 ones stay sharp inside the curve) with 001's rational B-spline approximation, the
 fewest written blocks within T of the path both ways, and writes the program with
-Fanuc G06.2 groups, and runs of G1 moves that lie within T of one line or one arc in the
-program's plane as one G1 or G2/G3 block (ipo.fit.arcs) where that costs fewer blocks;
+Fanuc G06.2 groups, and runs of G1 moves that lie within T of one line or one arc in a
+principal plane as one G1 or G2/G3 block (ipo.fit.arcs) where that costs fewer blocks;
 everything else is copied. Each group is tabled as the controller's
 check tables it (controller_check); one it would refuse stays as the moves it replaces.
 Prints chains, corners, blocks and bytes before/after, the largest deviation and the fit
@@ -62,7 +62,8 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
         f"chains           {rep.chains} (G1/G2/G3 moves without a break; corners do not break them)",
         f"{dialect.upper() + ' groups':16s} {rep.groups}",
         f"G2/G3 arcs       {rep.arcs} and {rep.lines} G1 lines, each written for a run of G1 moves within the"
-        " tolerance of it (in the program's plane; never a full circle, over 180 degrees or a helix)",
+        " tolerance of it (in a principal plane, with its G17/G18/G19 where that is not the program's, which is"
+        " restored after it; never a full circle, over 180 degrees or a helix)",
         f"moves replaced   {rep.moves_replaced} (by the groups, arcs and lines)",
         f"corners          {rep.sharp_vertices} vertices must stay sharp (turns over --corner-deg that no rounding"
         " within the tolerance lets the machine follow at their feed)",
@@ -107,7 +108,7 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
               help="g06.2: Fanuc G06.2 groups (3-D, knots written, through corners); g5.2: LinuxCNC G5.2/G5.3 "
                    "(XY plane at one Z, uniform knots, no knot blocks).")
 @click.option("--arcs/--no-arcs", default=True, show_default=True,
-              help="Write a run of G1 moves within the tolerance of one line or of one arc in the program's plane as "
+              help="Write a run of G1 moves within the tolerance of one line or of one arc in a principal plane as "
                    "one G1 or G2/G3 block where that costs fewer blocks than a group (G06.2 only).")
 @click.option("--compare", "gains", is_flag=True,
               help="Also run both programs, on the machine file's planner and on each of vcnc's and the grbl and "
