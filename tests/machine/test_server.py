@@ -252,7 +252,9 @@ def test_an_exception_in_the_command_prints_its_traceback_and_exits_1(tmp_path):
     from machine.commands import parse
 
     out, err = tmp_path / "out", tmp_path / "err"
-    request = {"argv": ["vcnc", "--debug", "parse", DEMO], "prog_name": "vcnc", "cwd": str(tmp_path),
+    # what `python -m machine.client --debug parse DEMO` sends (its argv[0] is the module's path under -m)
+    request = {"argv": [client.__file__, "--debug", "parse", DEMO], "prog_name": PROG,
+               "cwd": str(tmp_path),
                "env": dict(os.environ), "umask": 0o022, "ignored_signals": [],
                "stdio": [{"encoding": "utf-8", "errors": e, "line_buffering": False, "write_through": False}
                          for e in ("strict", "strict", "backslashreplace")]}
