@@ -116,7 +116,7 @@ def format_report(rep, tol_mm: float, dialect: str = "g06.2") -> str:
 @click.option("--stock", "stock_text",
               help="With --compare: cut a virtual workpiece with both, XMIN,YMIN,ZMIN,XMAX,YMAX,ZMAX (mm), and print "
                    "both machined surfaces and their difference.")
-@click.option("--tool", type=int, help="With --stock: the workpiece's tool (default: the program's T… M6).")
+@click.option("--tool", type=int, help="With --stock: the workpiece's tool (default: the program's T… M6, else [finishing]).")
 @click.option("--grid-um", type=float, help="With --stock: Z-map spacing in um (default: from the tool).")
 @click.option("--machine", type=INPUT_FILE, default=None,
               help="Machine file (TOML) for the sharp-corner test and --compare; the built-in default if omitted.")
