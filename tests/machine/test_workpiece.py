@@ -162,6 +162,28 @@ def test_the_period_rows_carry_the_spindle_angle(tmp_path):
     assert np.allclose(step[line == 7], -2 * math.pi * 6000 / 60 * period_s)
 
 
+def test_saved_heights_are_the_zmaps_float32_values_stored_losslessly(tmp_path):
+    import zipfile
+
+    from machine.workpiece.surface_file import load_npz, save_npz
+    from machine.workpiece.zmap import Surface
+
+    z = np.float32([[-1.0, 0.1], [1e-7, 15.999999]]).astype(np.float64)  # float32 values, none a round float64
+    line = np.int32([[3, 3], [0, 7]])
+    surface = Surface(np.array([0.0, 0.05]), np.array([1.0, 1.05]), z, line, {"grid_mm": 0.05})
+    save_npz(surface, tmp_path / "s.npz")
+    back, gouge = load_npz(tmp_path / "s.npz")
+    assert back.z_mm.dtype == np.float64 and np.array_equal(back.z_mm, z) and np.array_equal(back.line, line)
+    assert not gouge.any() and back.meta == {"grid_mm": 0.05}
+    with zipfile.ZipFile(tmp_path / "s.npz") as archive:
+        assert archive.getinfo("z_mm.npy").compress_type == zipfile.ZIP_STORED
+    with np.load(tmp_path / "s.npz") as data:
+        assert data["z_mm"].dtype == np.float32
+    surface.z_mm[0, 1] = 0.1  # not a float32 value: refused, not rounded
+    with pytest.raises(ValueError, match="float32"):
+        save_npz(surface, tmp_path / "t.npz")
+
+
 def test_run_writes_the_surface_files(tmp_path):
     from click.testing import CliRunner
 
