@@ -46,19 +46,18 @@ def plot_pair(a: Surface, b: Surface, out, files) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.colors import LightSource
 
     from machine.workpiece.measure import detrend
+    from machine.workpiece.plot import shaded
 
     extent = (a.x_mm[0], a.x_mm[-1], a.y_mm[0], a.y_mm[-1])
     fig, axes = plt.subplots(1, 3, figsize=(18, 5.5))
-    ls = LightSource(azdeg=315, altdeg=35)
     for ax, s, name in ((axes[0], a, files[0]), (axes[1], b, files[1])):
         rough = np.vstack([detrend(s.x_mm, row) for row in s.z_mm]) * 1e3
         cols, rows = inner(s)
         mid = rough[np.ix_(rows, cols)]
         lim = float(np.nanpercentile(np.abs(mid), 99)) if np.isfinite(mid).any() else 1.0
-        rgb = ls.shade(np.nan_to_num(rough), cmap=plt.get_cmap("RdBu_r"), vmin=-lim, vmax=lim, blend_mode="soft")
+        rgb = shaded(np.nan_to_num(rough), cmap="RdBu_r", vmin=-lim, vmax=lim, blend="soft")
         ax.imshow(rgb, origin="lower", extent=extent, aspect="equal")
         ax.set_title(f"{Path(name).name}\nshaded, less its mean line along X (+-{lim:.2f} um)")
     diff = (b.z_mm - a.z_mm) * 1e3

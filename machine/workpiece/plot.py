@@ -10,7 +10,7 @@ from machine.workpiece.zmap import Surface
 
 PROFILE_ACROSS_MM = 2.0  # a few passes
 PROFILE_ALONG_MM = 10.0  # a few chords of a finishing program
-# The shaded height is blended (hsv) at most this many pixels along a side: the panel shows about 650, and
+# Shaded maps are blended at most this many pixels along a side: the panel shows about 650, and
 # blending finish_g01.nc's 2581 x 961 nodes took 1.1 s of the figure's 3 s. The slopes are taken at every node
 # first, so that the scallops still shade the averaged pixels.
 SHADE_MAX_PX = 1400
@@ -24,18 +24,21 @@ def _block_mean(a: np.ndarray, f: int) -> np.ndarray:
     return sums / counts.reshape(counts.shape + (1,) * (a.ndim - 2))
 
 
-def shaded_height(z: np.ndarray, grid_mm: float) -> np.ndarray:
-    """RGB of the height in grey, shaded by the light from the north-west (LightSource.shade's hsv blend)."""
+def shaded(data: np.ndarray, *, cmap: str = "gray", vmin: float | None = None, vmax: float | None = None,
+           blend: str = "hsv", spacing: float = 1.0, vert_exag: float = 1.0) -> np.ndarray:
+    """RGB of data in the colour map, shaded by the light from the north-west: LightSource.shade, with the
+    slopes taken at every node and the blend at most SHADE_MAX_PX a side."""
     import matplotlib.pyplot as plt
     from matplotlib.colors import LightSource, Normalize
 
     light = LightSource(azdeg=315, altdeg=35)
-    intensity = light.hillshade(z, vert_exag=20.0, dx=grid_mm, dy=grid_mm)
-    rgb = plt.get_cmap("gray")(Normalize()(z))[..., :3]
-    f = -(-max(z.shape) // SHADE_MAX_PX)
+    intensity = light.hillshade(data, vert_exag=vert_exag, dx=spacing, dy=spacing)
+    rgb = plt.get_cmap(cmap)(Normalize(vmin, vmax)(data))[..., :3]
+    f = -(-max(data.shape) // SHADE_MAX_PX)
     if f > 1:
         rgb, intensity = _block_mean(rgb, f), _block_mean(intensity, f)
-    return light.blend_hsv(rgb, intensity[..., None])
+    mix = light.blend_hsv if blend == "hsv" else light.blend_soft_light
+    return mix(rgb, intensity[..., None])
 
 
 def plot_surface(surface: Surface, out, *, title: str = "", reference: np.ndarray | None = None,
@@ -47,7 +50,7 @@ def plot_surface(surface: Surface, out, *, title: str = "", reference: np.ndarra
     x, y, z = surface.x_mm, surface.y_mm, surface.z_mm
     extent = (x[0], x[-1], y[0], y[-1])
     fig, ((ax_h, ax_d), (ax_across, ax_along)) = plt.subplots(2, 2, figsize=(14, 9))
-    ax_h.imshow(shaded_height(z, surface.grid_mm), origin="lower", extent=extent, aspect="equal")
+    ax_h.imshow(shaded(z, spacing=surface.grid_mm, vert_exag=20.0), origin="lower", extent=extent, aspect="equal")
     ax_h.set_title("machined surface (shaded height)")
     if reference is not None:
         dev_um, label = (z - reference) * 1e3, "deviation from the reference, um (+ material left)"
