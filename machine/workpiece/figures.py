@@ -12,6 +12,12 @@ from machine.workpiece.zmap import Surface
 
 EVAL_FRACTION = 0.8
 PROFILES = 9
+# The figures along and across the passes describe a surface machined all over, as a finishing raster
+# leaves it: where less of the middle of the stock was cut (a contour, a pocket, an engraving), its uncut
+# top and the grooves' walls would be measured as scallops and facets, so those figures are left out.
+MACHINED_MIN_PCT = 95.0
+RASTER_KEYS = ("along_rz_um", "along_ra_um", "facet_spacing_mm", "facet_depth_um", "scallop_um",
+               "pass_spacing_mm", "across_rz_um", "classical_pick_mm", "classical_scallop_um")
 
 
 def inner(surface: Surface) -> tuple[np.ndarray, np.ndarray]:
@@ -43,8 +49,12 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
 
     across = profile_figures(*profile(surface, across_axis, 0.5 * (a_lo + a_hi), c_lo, c_hi, reference),
                              form_removed=form_removed, periodic=True)
+    cols, rows_in = inner(surface)
+    machined_pct = float(np.mean(surface.line[np.ix_(rows_in, cols)] != 0) * 100) if cols.any() and rows_in.any() \
+        else 0.0
     out = {"grid_um": surface.grid_mm * 1e3, "nodes": int(surface.z_mm.size), "tool": surface.meta.get("tool"),
            "z_min_mm": float(np.min(surface.z_mm)), "z_max_mm": float(np.max(surface.z_mm)),
+           "machined_pct": machined_pct,
            "along_rz_um": median("rz_um"), "along_ra_um": median("ra_um"),
            "facet_spacing_mm": median("facet_spacing_mm"), "facet_depth_um": median("facet_depth_um"),
            "scallop_um": across.facet_depth_um, "pass_spacing_mm": across.facet_spacing_mm,
@@ -53,6 +63,10 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
     spacing = pick_mm or surface.meta.get("pick_mm") or across.facet_spacing_mm
     out["classical_pick_mm"] = spacing if r_mm else None
     out["classical_scallop_um"] = classical_scallop_mm(r_mm, spacing) * 1e3 if r_mm and spacing else None
+    if machined_pct < MACHINED_MIN_PCT:
+        out.update({key: None for key in RASTER_KEYS})
+        out["note"] = (f"the middle {EVAL_FRACTION:.0%} of the stock is not machined all over ({machined_pct:.1f} % "
+                       f"of its nodes cut, {MACHINED_MIN_PCT:g} % needed): no figures along and across the passes")
     if reference is not None:
         dev = surface.z_mm - reference
         out["deviation_min_um"] = float(np.nanmin(dev) * 1e3)
@@ -64,7 +78,8 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
 
 
 ROWS = [("grid", "grid_um", "{:g} um"), ("nodes", "nodes", "{:,}"), ("Z min", "z_min_mm", "{:.4f} mm"),
-        ("Z max", "z_max_mm", "{:.4f} mm"), ("along the feed Rz", "along_rz_um", "{:.3f} um"),
+        ("Z max", "z_max_mm", "{:.4f} mm"), ("machined (middle of the stock)", "machined_pct", "{:.1f} %"),
+        ("along the feed Rz", "along_rz_um", "{:.3f} um"),
         ("along the feed Ra", "along_ra_um", "{:.3f} um"), ("facet spacing", "facet_spacing_mm", "{:.4f} mm"),
         ("facet depth", "facet_depth_um", "{:.3f} um"), ("scallop across the passes", "scallop_um", "{:.3f} um"),
         ("pass spacing", "pass_spacing_mm", "{:.4f} mm"),
@@ -84,6 +99,8 @@ def format_rows(named: dict[str, dict]) -> str:
         cells = ["-" if f.get(key) is None else fmt.format(f[key]) for f in named.values()]
         lines.append(f"{label:28s} " + " ".join(f"{c:>{w}s}" for c in cells))
     for name, f in named.items():
+        if f.get("note"):
+            lines.append(f"note ({name}): {f['note']}")
         for g in f.get("gouges", [])[:10]:
             lines.append(f"gouge ({name}): line {g['line']}: {g['depth_um']:.3f} um deep at X{g['x_mm']:.3f} "
                          f"Y{g['y_mm']:.3f}, {g['nodes']} nodes")

@@ -17,7 +17,7 @@ from machine.controller import Controller, start_position
 from machine.workpiece.analytic import (BOWL_STOCK, bowl_deviation, bowl_nurbs_program, bowl_polygon_program,
                                         raster_program)
 from machine.workpiece.build import build_workpiece
-from machine.workpiece.figures import surface_figures
+from machine.workpiece.figures import RASTER_KEYS, format_rows, surface_figures
 from machine.workpiece.envelope import envelope
 from machine.workpiece.removal import cut as cut_batch
 from machine.workpiece.tiles import COUNTS, TILE, Batch, ZMap
@@ -91,6 +91,15 @@ def test_ball_raster_leaves_the_classical_scallop(tmp_path):
     assert figs["pass_spacing_mm"] == pytest.approx(s, abs=g_um / 1000)
     assert abs(figs["scallop_um"] / 1e3 - h) <= (s / 2) / r * (g_um / 2000) + F32_MM
     assert figs["classical_scallop_um"] == pytest.approx(h * 1e3, rel=1e-3)
+
+
+def test_a_slot_is_not_measured_as_a_finished_surface(tmp_path):
+    # a 3 mm ball 1 mm deep cuts where |y - 5| < sqrt(r^2 - (r - 1)^2): 4.47 mm of the window's 8 (y 1..9)
+    surf = cut(tmp_path, "G21 G90 G94 T1 M6\nG0 X1 Y5 Z1\nG1 Z-1 F300\nG1 X9\nG0 Z5\nM2\n", "0,0,-3,10,10,0", 100.0)
+    figs = surface_figures(surf, feed_axis="x")
+    assert figs["machined_pct"] == pytest.approx(100 * 2 * math.sqrt(5.0) / 8.0, abs=100 * 0.1 / 8.0)
+    assert all(figs[key] is None for key in RASTER_KEYS) and "not machined all over" in figs["note"]
+    assert "note (slot)" in format_rows({"slot": figs})
 
 
 def test_flat_plunge_leaves_its_exact_disc(tmp_path):
