@@ -102,6 +102,23 @@ def test_a_slot_is_not_measured_as_a_finished_surface(tmp_path):
     assert "note (slot)" in format_rows({"slot": figs})
 
 
+def test_without_a_stock_the_error_says_where_the_program_cuts(tmp_path):
+    from machine.workpiece.stock import StockError
+
+    # a full circle of r 5 about (10, 10) at Z-1 (its extremes 5..15 are not its ends), a line to X20;
+    # work zero at machine (100, 50, -20), T2 (ball r 2) 30 mm long and compensated (G43 H2): the tip is where written
+    text = "G21 G90 G94 T2 M6 G43 H2\nG0 X15 Y10 Z5\nG1 Z-1 F300\nG2 X15 Y10 I-5 J0\nG1 X20 Y12\nG0 Z5\nM2\n"
+    config = dataclasses.replace(default_config(), tools={2: Tool(length_mm=30.0, ball_radius_mm=2.0)},
+                                 work_offsets_mm={"G54": (100.0, 50.0, -20.0)})
+    path = tmp_path / "p.nc"
+    path.write_text(text)
+    program = Controller(config).check(path)
+    with pytest.raises(StockError) as err:
+        build_workpiece(program, config, start_position(program))
+    assert "tip over X5.000..20.000 Y5.000..15.000 Z-1.000..5.000 (work)" in str(err.value)
+    assert "--stock=3.000,3.000,-2.000,22.000,17.000,ZMAX" in str(err.value)
+
+
 def test_flat_plunge_leaves_its_exact_disc(tmp_path):
     tools = {2: Tool(shape="flat", diameter_mm=4.0, flutes=2)}
     text = "G21 G90 G94 T2 M6\nG0 X5 Y5 Z1\nG1 Z-2 F300\nG0 Z5\nM2\n"
