@@ -130,12 +130,15 @@ def ball_planes(qx, qy, runs, listed, chosen, n, columns, out):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def ball_bounds(qx, qy, run, floor_mm, g_out, s_out):
-    """(G*, s*) of a ball run at the nodes (qx, qy) into g_out and s_out: envelope.env_ball's closed form (the
-    cylinder's root, clamped to the line's ends) without branches, so that the loop runs on the CPU's vector
-    units (numpy's error model: no check of each division for a zero, which would keep the loop scalar; no
-    divisor here is zero). Inlined into removal.cut_blocks, which takes the same error model: a call cost
-    about 90 ns (on finish_g01.nc 0.35 M calls), most of it the atomic counts of its four arrays' references."""
+def ball_bounds(qx, qy, m0, m1, run, floor_mm, g_out, s_out, row):
+    """(G*, s*) of a ball run at the nodes m0 .. m1-1 of (qx, qy) into row `row` of g_out and s_out:
+    envelope.env_ball's closed form (the cylinder's root, clamped to the line's ends) without branches, so that
+    the loop runs on the CPU's vector units (numpy's error model: no check of each division for a zero, which
+    would keep the loop scalar; no divisor here is zero). Inlined into removal.cut_blocks, which takes the same
+    error model: a call cost about 90 ns (on finish_g01.nc 0.35 M calls), most of it the atomic counts of its
+    four arrays' references. The nodes are indices into whole arrays, not views of them: each view counted a
+    reference to its array with two atomic operations (tiles._keep took eight a kept run); the indices are
+    unsigned (numba tests a signed index for a negative one, which keeps a loop scalar)."""
     r = run[CORNER]
     r2 = r * r
     ax, ay, az, bx, by, bz = run[AX], run[AY], run[AZ], run[BX], run[BY], run[BZ]
@@ -144,7 +147,7 @@ def ball_bounds(qx, qy, run, floor_mm, g_out, s_out):
     l2 = a + dz * dz
     inv_l2 = 1.0 / l2  # s* steers which segments are evaluated, not their heights: a rounding off is harmless
     top = az + r - run[DROP]
-    for m in range(qx.shape[0]):  # one loop: a row of 8 nodes is too short for the vector loop (2.5x slower)
+    for m in range(m0, m1):  # one loop: a row of 8 nodes is too short for the vector loop (2.5x slower)
         px, py = qx[m] - ax, qy[m] - ay
         pp = px * px + py * py
         k = px * dx + py * dy
@@ -158,5 +161,5 @@ def ball_bounds(qx, qy, run, floor_mm, g_out, s_out):
         ex, ey = px - t * dx, py - t * dy
         w = r2 - (ex * ex + ey * ey)
         v = top + t * dz - math.sqrt(max(w, 0.0))
-        g_out[m] = max(v, floor_mm) if disc >= 0.0 and w >= 0.0 else np.inf
-        s_out[m] = t
+        g_out[row, m] = max(v, floor_mm) if disc >= 0.0 and w >= 0.0 else np.inf
+        s_out[row, m] = t

@@ -304,16 +304,16 @@ def workspace(n):
 
 @njit(cache=True, inline="always")
 def _keep(c, kept, i0, j0, zm, core, runs, ws, rows, counts):
-    """Run c becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws; for a ball only at the
-    rows (j_lo, j_hi) of the tile where it may win (_plane_prunes), G* = inf at the others."""
+    """Run c becomes kept run number `kept`: its (G*, s*) at the tile's nodes into ws (by index, not views:
+    bounds.ball_bounds); for a ball only at the rows (j_lo, j_hi) where it may win (_plane_prunes), else inf."""
     run = run_row(runs, c)
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
-    g_star, s_star = ws.g_star[kept], ws.s_star[kept]
     if core == 0.0:
-        m0, m1 = rows[0] * TILE, (rows[1] + 1) * TILE
-        g_star[:m0], g_star[m1:], s_star[:m0], s_star[m1:] = np.inf, np.inf, 0.0, 0.0
-        ball_bounds(ws.qx[m0:m1], ws.qy[m0:m1], run, floor_mm, g_star[m0:m1], s_star[m0:m1])
-        counts[2] += m1 - m0
+        row, m0, m1 = np.uint64(kept), np.uint64(rows[0] * TILE), np.uint64((rows[1] + 1) * TILE)
+        for m in range(np.uint64(NODES)):  # the rows not evaluated; ball_bounds overwrites the others
+            ws.g_star[row, m], ws.s_star[row, m] = np.inf, 0.0
+        ball_bounds(ws.qx, ws.qy, m0, m1, run, floor_mm, ws.g_star, ws.s_star, row)
+        counts[2] += (rows[1] + 1 - rows[0]) * TILE
     else:
         counts[2] += NODES
         for m in range(NODES):
