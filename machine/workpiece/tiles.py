@@ -28,7 +28,7 @@ from numba import njit
 from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, ROUNDING_MM, ball_bounds,
                                       ball_planes, bound_node, bound_plane, run_row)
 from machine.workpiece.envelope import ball_slanted
-from machine.workpiece.search import may_win, search, sweep_ball
+from machine.workpiece.search import borrowed, borrowed_row, may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side
 NODES = TILE * TILE
@@ -271,12 +271,11 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
 @njit(cache=True, error_model="numpy")
 def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
     """The kept runs r0 .. r1-1 at each node of the tile: for a ball one run after the other at every node at
-    once (search.sweep_ball, inlined here: numpy's error model for its divisions), else per node
-    (_search_nodes); returns the tile's highest node."""
+    once (search.sweep_ball, inlined here: numpy's error model for its divisions; the arrays it makes views
+    of borrowed, so that they count no references), else per node (_search_nodes); returns the tile's top."""
     if bt.core != 0.0:
         return _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts)
-    tool = (bt.core, bt.corner, zm.floor_mm)
-    g_star, best = ws.g_star, ws.best
+    tool, g_star, best = (bt.core, bt.corner, zm.floor_mm), ws.g_star, ws.best
     for r in range(r0, r1):
         # a run that the runs swept before it have left no node to lower (a third of the kept runs of
         # finish_g01.nc) is passed over after one loop without branches, before sweep_ball's views and searches
@@ -287,8 +286,9 @@ def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
             continue
         c = ws.kept[r]
         a = starts[c]
-        sweep_ball(ws.g_star[r], ws.s_star[r], a, starts[c + 1], run_row(runs, c), bt.pos, tool,
-                   bt.stamp_first and a == 0, ws.qx, ws.qy, ws.best, ws.idx, ws.need, counts)
+        sweep_ball(borrowed_row(g_star, r), borrowed_row(ws.s_star, r), a, starts[c + 1], run_row(runs, c), bt.pos,
+                   tool, bt.stamp_first and a == 0, borrowed(ws.qx), borrowed(ws.qy), borrowed(best), borrowed(ws.idx),
+                   borrowed(ws.need), counts)
     return np.max(ws.best)
 
 
