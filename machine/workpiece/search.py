@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import carray, njit, types
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from machine.workpiece.bounds import INV_LL, ROUNDING_MM, bound_line, proj
 from machine.workpiece.envelope import TINY_MM2, ball_slanted, envelope
@@ -66,6 +66,25 @@ def borrowed(arr):
 def borrowed_row(arr, r):
     """Row r of a 2-D array, borrowed (as borrowed)."""
     return carray(_data_at(arr, r * arr.shape[1]), arr.shape[1])
+
+
+def lent(value):
+    """value with every array in it borrowed (an array, or a tuple or named tuple such as tiles.Workspace of them;
+    anything else as it is), for a call that is handed many: it then counts no reference to them. Not inlined
+    (overload's inline="always" made cut_blocks crash on finish_g01.nc)."""
+
+
+@overload(lent)
+def _lent(value):
+    if isinstance(value, types.Array):
+        return lambda value: borrowed(value)
+    if not isinstance(value, types.BaseTuple):
+        return lambda value: value
+    fields = "".join(f"lent(value[{i}]), " for i in range(len(value)))
+    made = f"kind({fields})" if isinstance(value, types.BaseNamedTuple) else f"({fields})"
+    scope = {"kind": getattr(value, "instance_class", None), "lent": lent}
+    exec(f"def impl(value):\n    return {made}", scope)
+    return scope["impl"]
 
 
 @njit(cache=True, inline="always")

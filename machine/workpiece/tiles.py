@@ -28,7 +28,7 @@ from numba import njit
 from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, ROUNDING_MM, ball_bounds,
                                       ball_planes, bound_node, bound_plane, run_row)
 from machine.workpiece.envelope import ball_slanted
-from machine.workpiece.search import borrowed, borrowed_row, may_win, search, sweep_ball
+from machine.workpiece.search import borrowed, borrowed_row, lent, may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side
 NODES = TILE * TILE
@@ -346,8 +346,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         ws.qx[m], ws.qy[m] = origin_x + i * grid_mm, origin_y + j * grid_mm
     # the first group: the runs whose key is within GROUP_MM of the lowest, so that each node's best is nearly
     # final before the other runs are pruned against it
-    key0 = key_min + GROUP_MM
-    count = listed.shape[0]
+    key0, count = key_min + GROUP_MM, listed.shape[0]
     group = _select(count, ws.scratch, top, top, key0, True, cand)
     for q in range(1, group):  # in the order of their keys (insertion: a few), the lowest first
         p, k = cand[q], q
@@ -357,7 +356,8 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         cand[k] = p
     for q in range(group):
         _keep(listed[cand[q]], q, i0, j0, zm, bt.core, runs, ws, (0, TILE - 1), counts)
-    top_now = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
+    handed = lent((zm, bt, starts, runs, ws, counts))  # _sweep_runs' calls then count no references
+    top_now = _sweep_runs(0, group, *handed)
     cover = _tile_cover(best, grid_mm)
     kept = group
     others = _select(count, ws.scratch, top, top_now, key0, False, cand)
@@ -385,7 +385,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
                 _keep(c, kept, i0, j0, zm, bt.core, runs, ws, (j_lo, j_hi), counts)
                 kept += 1
         if kept > first:
-            _sweep_runs(first, kept, zm, bt, starts, runs, ws, counts)
+            _sweep_runs(first, kept, *handed)
         q0, size = q0 + size, size * CHUNK_GROWTH
     new_top = -np.inf
     for m in range(NODES):
