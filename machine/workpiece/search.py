@@ -62,12 +62,6 @@ def borrowed(arr):
     return carray(_data_at(arr, 0), arr.shape)
 
 
-@njit(cache=True, inline="always")
-def borrowed_row(arr, r):
-    """Row r of a 2-D array, borrowed (as borrowed)."""
-    return carray(_data_at(arr, r * arr.shape[1]), arr.shape[1])
-
-
 def lent(value):
     """value with every array in it borrowed (an array, or a tuple or named tuple such as tiles.Workspace of them;
     anything else as it is), for a call that is handed many: it then counts no reference to them. Not inlined
@@ -205,9 +199,9 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, n
     """The run's segments a .. b-1 at the nodes (qx, qy) of a tile (best, idx updated), for a ball; g_star and
     s_star: its bound's minimum and where it is reached at each node (bounds.ball_bounds); tool: (core,
     corner, floor_mm); need: scratch (a flag per node). counts: searches, envelopes evaluated (tiles.COUNTS' 1
-    and 2). Inlined into tiles._sweep_runs, which takes numpy's error model for _sweep_segment's divisions and
-    hands it its arrays borrowed: then its views of them count no references either (finish_g01.nc, one
-    batch, one thread: 0.325 -> 0.305 s)."""
+    and 2). Inlined into tiles._sweep_runs, which takes numpy's error model for _sweep_segment's divisions;
+    its arrays are borrowed (tiles.cut_tile), so that its views of them count no references (finish_g01.nc,
+    one batch, one thread: 0.325 -> 0.305 s)."""
     floor_mm = tool[2]
     s_lo, s_hi = np.inf, -np.inf
     m0, m1 = best.shape[0], 0
