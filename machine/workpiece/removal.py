@@ -34,7 +34,8 @@ from numba.extending import intrinsic
 from machine.workpiece.bounds import AX, AY, BX, BY, CORE, CORNER, run_table
 from machine.workpiece.chains import CHAIN_TOL_MM, MAX_SEGMENTS, build_chains
 from machine.workpiece.envelope import seg_distance
-from machine.workpiece.tiles import TILE, Batch, ZMap, near_table, cut_tile, workspace
+from machine.workpiece.scan import near_table
+from machine.workpiece.tiles import TILE, Batch, ZMap, cut_tile, workspace
 
 BLOCK = 4  # tiles along a block's side
 CHUNK_BLOCKS = 16  # blocks one thread cuts between two looks at how many threads may cut
@@ -127,15 +128,23 @@ def cut_blocks(blocks, zm, bt, starts, runs, offsets, listed, counts, cursor, en
     for u in range(blocks.shape[0]):
         most = max(most, offsets[blocks[u] + 1] - offsets[blocks[u]])
     ws = workspace(most)
+    span = BLOCK * TILE
+    half_mm = 0.5 * (BLOCK - 1) * TILE * zm.grid_mm  # a tile centre's offset from its block's centre, at most
+    e_tile = 0.5 * (TILE - 1) * zm.grid_mm * math.sqrt(2.0)
     while cursor[0] < end:
         u = _take(cursor)
         if u >= end:
             break
         b = blocks[u]
         mine = listed[offsets[b]:offsets[b + 1]]
-        near_table(mine, runs, ws.near)
-        counts[0] += mine.shape[0]
         by, bx = b // nbx, b % nbx
+        # the scan's frame: the block's centre and its highest node (scan.near_table)
+        ws.frame[0] = zm.origin_x + (bx * span + 0.5 * (span - 1)) * zm.grid_mm
+        ws.frame[1] = zm.origin_y + (by * span + 0.5 * (span - 1)) * zm.grid_mm
+        z_ref = np.max(zm.tile_max[by * BLOCK:by * BLOCK + BLOCK, bx * BLOCK:bx * BLOCK + BLOCK])
+        ws.frame[2] = z_ref if np.isfinite(z_ref) else 0.0
+        near_table(mine, runs, ws.frame, half_mm, e_tile, ws.columns, ws.near)
+        counts[0] += mine.shape[0]
         for ty in range(by * BLOCK, min(by * BLOCK + BLOCK, nty)):
             for tx in range(bx * BLOCK, min(bx * BLOCK + BLOCK, ntx)):
                 cut_tile(ty, tx, zm, bt, starts, runs, mine, ws, counts)

@@ -2,7 +2,8 @@
 
 STEP 3  The runs listed for the tile's block that its distance bound min(z_A, z_B) - drop + h(d - e)
         does not rule out (d: the tile centre's distance to the run's line, e the tile's half-diagonal),
-        each with a key: G* at the centre for a ball, else G where the line passes closest to the centre.
+        each with a key: G* at the centre for a ball, else G where the line passes closest to the centre
+        (scan.py: in float32, the bound certified below the float64 one).
 STEP 4  First the group of runs whose key is within GROUP_MM of the lowest (the passes through the tile
         and next to it: they leave the nodes near their final heights), then the others in the order of their
         keys, in chunks (CHUNK_GROWTH), each run unless its distance bound is above the tile's highest node or
@@ -19,15 +20,14 @@ takes a node that is lower, or as low by an earlier segment (ties between level 
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from machine.workpiece.bounds import (AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP, ROUNDING_MM, ball_bounds,
-                                      ball_planes, bound_node, bound_plane, run_row)
-from machine.workpiece.envelope import ball_slanted
+from machine.workpiece.bounds import (COLUMNS, ROUNDING_MM, ball_bounds, ball_planes, bound_node, bound_plane,
+                                      run_row)
+from machine.workpiece.scan import ROWS, candidates, select, threshold
 from machine.workpiece.search import lent, may_win, search, sweep_ball
 
 TILE = 8  # nodes along a tile's side
@@ -74,16 +74,18 @@ class Batch(NamedTuple):
 
 
 class Workspace(NamedTuple):
-    """A block's scratch arrays (one set per thread): its listed runs' table (near_table), the candidates'
-    bounds and keys, the tile's nodes (best height, its segment) and the kept runs' G*, s* per node."""
+    """A block's scratch arrays (one set per thread): its frame (the centre's x, y and z_ref, scan.near_table),
+    its listed runs' table (float32, near_table), the candidates' bounds and keys (float32, scan.candidates),
+    the tile's nodes (best height, its segment) and the kept runs' G*, s* per node."""
 
+    frame: np.ndarray
     near: np.ndarray
     scratch: np.ndarray
     best: np.ndarray
     idx: np.ndarray
     cand: np.ndarray
     planes: np.ndarray  # the planes of G* of the candidates that are not pruned by their bounds (_plane_prunes)
-    columns: np.ndarray  # their runs' rows, gathered (bounds.ball_planes)
+    columns: np.ndarray  # their runs' rows, gathered (bounds.ball_planes; the block's in scan.near_table)
     g_star: np.ndarray
     s_star: np.ndarray
     order: np.ndarray
@@ -173,68 +175,6 @@ def _plane_prunes(plane, grid_mm, floor_mm, a, best, idx, cover):
     return True, j_lo, j_hi
 
 
-# rows of a block's table of its runs (near_table), laid out for the scan of each tile
-NX0, NY0, NDX, NDY, NINV, NLOW, NZ0, NDZ, NCORE, NCORNER = range(10)
-
-
-@njit(cache=True)
-def near_table(listed, runs, near):
-    """The listed runs' lines and bound tools into near's first columns (STEP 3's scan reads them in order)."""
-    for p in range(listed.shape[0]):
-        run = runs[listed[p]]
-        dx, dy = run[BX] - run[AX], run[BY] - run[AY]
-        bb = dx * dx + dy * dy
-        near[NX0, p], near[NY0, p], near[NDX, p], near[NDY, p] = run[AX], run[AY], dx, dy
-        near[NINV, p] = 1.0 / bb if bb > 1e-18 else 0.0
-        near[NLOW, p] = min(run[AZ], run[BZ]) - run[DROP]
-        near[NZ0, p], near[NDZ, p] = run[AZ] - run[DROP], run[BZ] - run[AZ]
-        near[NCORE, p], near[NCORNER, p] = run[CORE], run[CORNER]
-    return near
-
-
-@njit(cache=True, inline="always")
-def _candidates(mx, my, e_tile, top, floor_mm, listed, ws):
-    """STEP 3 for the tile centred at (mx, my): every listed run's distance bound and key into ws.scratch;
-    returns the lowest key of the runs whose bound is below top (the candidates; inf where there is none).
-    Loops without branches, for the vector units. A ball's key is G* at the centre, not G where the line passes
-    closest (a flat's or a bull's key, and a ball's beyond its line's cylinder): on a sloped line the lowest point
-    is off the closest, and the group by G* holds more of the final runs (finish_g01.nc: envelopes -8 %)."""
-    near, scratch = ws.near, ws.scratch
-    count = listed.shape[0]
-    for p in range(count):
-        px, py = mx - near[NX0, p], my - near[NY0, p]
-        dx, dy = near[NDX, p], near[NDY, p]
-        t = min(max((px * dx + py * dy) * near[NINV, p], 0.0), 1.0)
-        ex, ey = px - t * dx, py - t * dy
-        d = math.sqrt(ex * ex + ey * ey)
-        core, corner = near[NCORE, p], near[NCORNER, p]
-        u = min(max(d - e_tile - core, 0.0), corner)  # the tile's nearest point, clamped into the tool
-        bound = near[NLOW, p] + corner - math.sqrt(corner * corner - u * u)
-        w = min(max(d - core, 0.0), corner)
-        scratch[0, p] = max(bound, floor_mm) if d <= core + corner + e_tile else np.inf
-        closest = near[NZ0, p] + t * near[NDZ, p] + corner - math.sqrt(corner * corner - w * w)
-        x0, y0, z0, z1 = near[NX0, p], near[NY0, p], near[NZ0, p], near[NZ0, p] + near[NDZ, p]
-        lowest = ball_slanted(mx, my, x0, y0, z0, x0 + dx, y0 + dy, z1, corner)[0]
-        scratch[1, p] = min(lowest, closest) if core == 0.0 and near[NINV, p] != 0.0 else closest
-    key_min = np.inf
-    for p in range(count):
-        key_min = min(key_min, scratch[1, p] if scratch[0, p] < top else np.inf)
-    return key_min
-
-
-@njit(cache=True, inline="always")
-def _select(count, scratch, top, top_now, key0, group, chosen):
-    """The candidates (bound below top) of the group (key at most key0) or else the others whose bound is
-    not above top_now: their places in the block's list into chosen, in order; their number. Without
-    branches: the place is written at every step, the count advances only where it is taken."""
-    n = 0
-    for p in range(count):
-        chosen[n] = p
-        bound, key = scratch[0, p], scratch[1, p]
-        n += (bound < top) & ((key <= key0) if group else ((key > key0) & (bound <= top_now)))
-    return n
-
-
 @njit(cache=True)
 def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
     """Search the kept runs r0 .. r1-1 (ws.kept) at each node of the tile, in the order of their G* there;
@@ -294,11 +234,11 @@ def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
 @njit(cache=True)
 def workspace(n):
     """Scratch arrays for blocks of up to n listed runs, one set per call of removal.cut_blocks (near_table
-    fills near for each block in turn)."""
-    return Workspace(np.empty((10, n)), np.empty((2, n)), np.empty(NODES), np.empty(NODES, np.int64),
-                     np.empty(n, np.int64), np.empty((4, n)), np.empty((8, n)), np.empty((n, NODES)),
-                     np.empty((n, NODES)), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64),
-                     np.empty(NODES), np.empty(NODES), np.empty(NODES, np.bool_))
+    fills frame and near for each block in turn)."""
+    return Workspace(np.empty(3), np.empty((ROWS, n), np.float32), np.empty((2, n), np.float32), np.empty(NODES),
+                     np.empty(NODES, np.int64), np.empty(n, np.int64), np.empty((4, n)), np.empty((COLUMNS, n)),
+                     np.empty((n, NODES)), np.empty((n, NODES)), np.empty(n, np.int64), np.empty(n, np.int64),
+                     np.empty(n, np.int64), np.empty(NODES), np.empty(NODES), np.empty(NODES, np.bool_))
 
 
 @njit(cache=True, inline="always")
@@ -326,18 +266,17 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     """STEP 3 and 4 for one tile of zm (ZMap) by the batch bt (Batch), whose runs (removal.plan) start at
     starts, with their table runs; listed: the runs of the tile's block in program order; ws: its block's
     Workspace. Inlined into removal.cut_blocks, which owns them all, and borrows them (search.lent): a call or
-    a view counts a reference to each array it is handed or views (the Workspace holds 15) with two atomic
+    a view counts a reference to each array it is handed or views (the Workspace holds 16) with two atomic
     operations; a borrowed one has none (finish_g01.nc 0.279 -> 0.245 s, g1_lhchips4.ngc 0.239 -> 0.189 s)."""
     zm, bt, starts, runs, ws, counts = lent((zm, bt, starts, runs, ws, counts))
     z, line, tile_max, lines = zm.z, zm.line, zm.tile_max, bt.lines
     origin_x, origin_y, grid_mm, floor_mm = zm.origin_x, zm.origin_y, zm.grid_mm, zm.floor_mm
     best, idx, cand = ws.best, ws.idx, ws.cand
     ny, nx = z.shape
-    e_tile = 0.5 * (TILE - 1) * grid_mm * math.sqrt(2.0)
     i0, j0 = tx * TILE, ty * TILE  # node (i0 + m % TILE, j0 + m // TILE) is at origin + (i, j) g, as everywhere
     mx, my = origin_x + (i0 + 0.5 * (TILE - 1)) * grid_mm, origin_y + (j0 + 0.5 * (TILE - 1)) * grid_mm
     top = tile_max[ty, tx]
-    key_min = _candidates(mx, my, e_tile, top, floor_mm, listed, ws)
+    key_min, top32 = candidates(mx, my, top, floor_mm, listed, ws.frame, ws.near, ws.scratch)
     if key_min == np.inf:
         return
     for m in range(NODES):
@@ -347,8 +286,8 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
         ws.qx[m], ws.qy[m] = origin_x + i * grid_mm, origin_y + j * grid_mm
     # the first group: the runs whose key is within GROUP_MM of the lowest, so that each node's best is nearly
     # final before the other runs are pruned against it
-    key0, count = key_min + GROUP_MM, listed.shape[0]
-    group = _select(count, ws.scratch, top, top, key0, True, cand)
+    key0, count = key_min + np.float32(GROUP_MM), listed.shape[0]
+    group = select(count, ws.scratch, top32, top32, key0, True, cand)
     for q in range(1, group):  # in the order of their keys (insertion: a few), the lowest first
         p, k = cand[q], q
         while k > 0 and ws.scratch[1, cand[k - 1]] > ws.scratch[1, p]:
@@ -360,7 +299,7 @@ def cut_tile(ty, tx, zm, bt, starts, runs, listed, ws, counts):
     top_now = _sweep_runs(0, group, zm, bt, starts, runs, ws, counts)
     cover = _tile_cover(best, grid_mm)
     kept = group
-    others = _select(count, ws.scratch, top, top_now, key0, False, cand)
+    others = select(count, ws.scratch, top32, threshold(top_now, ws.frame), key0, False, cand)
     if bt.core == 0.0:
         ball_planes(mx, my, runs, listed, cand, others, ws.columns, ws.planes)
         others = _under_cover(others, ws.planes, cover, grid_mm, cand)
