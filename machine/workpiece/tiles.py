@@ -208,11 +208,11 @@ def _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts):
     return top
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _sweep_runs(r0, r1, zm, bt, starts, runs, ws, counts):
     """The kept runs r0 .. r1-1 at each node of the tile: for a ball one run after the other at every node at
-    once (search.sweep_ball, inlined here: numpy's error model for its divisions; its views count no references,
-    the arrays being borrowed by cut_tile), else per node (_search_nodes); returns the tile's highest node."""
+    once (search.sweep_ball, inlined here, as this is into cut_blocks: numpy's error model; its arrays borrowed by
+    cut_tile), else per node (_search_nodes); returns the tile's highest node."""
     if bt.core != 0.0:
         return _search_nodes(r0, r1, zm, bt, starts, runs, ws, counts)
     tool, g_star, best = (bt.core, bt.corner, zm.floor_mm), ws.g_star, ws.best
