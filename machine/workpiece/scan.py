@@ -34,7 +34,7 @@ The bound's error (u = 2^-24, float32's unit roundoff; each operation's rounding
 The thresholds the bound is tested against (top, the heights after the group) are rounded up, one step more.
 The key: G* at the tile centre for a ball, G at the line's closest point else, each within a few u S of
 its float64 value: the group and the other runs of finish_g01.nc and g1_lhchips4.ngc within 0.01 % of the
-float64 scan's, the searches and envelopes too (docs/workpiece.md, Speed).
+float64 scan's, the searches and envelopes too (docs/workpiece-speed.md).
 """
 from __future__ import annotations
 
