@@ -29,7 +29,6 @@ Usage: python bench/workpiece.py [--quick]   (--quick: the analytic cases only)
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import resource
 import sys

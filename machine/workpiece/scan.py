@@ -44,7 +44,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-from machine.workpiece.bounds import AX, AY, AZ, BX, BY, BZ, COLUMNS, CORE, CORNER, DROP
+from machine.workpiece.bounds import AX, AY, AZ, BX, BY, BZ, CORE, CORNER, DROP
 from machine.workpiece.envelope import TINY_MM2
 
 # rows of a block's table of its runs (near_table, float32), laid out for the scan of each tile

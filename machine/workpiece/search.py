@@ -177,7 +177,7 @@ def _sweep_segment(k, pos, r, floor_mm, qx, qy, best, idx):
 
 
 @njit(cache=True, inline="always")
-def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, idx, need):
+def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, need):
     """need[m]: node m still needs a search after the sweep of the segments k_lo .. k_hi (none when k_hi <
     k_lo): the run may lower it (its G* wins) and s* lies beyond the swept segments' projections or G at
     their ends still wins (G convex: no lower beyond its ends than there, if s* lies between them). A
@@ -186,7 +186,7 @@ def _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, be
     s_left, s_right = proj(pos, k_lo, run), proj(pos, k_hi + 1, run)
     first, last = k_lo == a, k_hi == b - 1
     for m in range(best.shape[0]):
-        was, by = best[m], idx[m]
+        was = best[m]
         g_left = bound_line(qx[m], qy[m], s_left, run, floor_mm)
         g_right = bound_line(qx[m], qy[m], s_right, run, floor_mm)
         left = first | ((s_star[m] >= s_left) & (not may_win(g_left, was)))
@@ -230,7 +230,7 @@ def sweep_ball(g_star, s_star, a, b, run, pos, tool, stamp, qx, qy, best, idx, n
             for m in range(best.shape[0]):
                 best[m], idx[m] = try_segment(qx[m], qy[m], k, best[m], idx[m], pos, tool, stamp)
     counts[2] += (k_hi - k_lo + 1) * best.shape[0]
-    _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, idx, need)
+    _unfinished(g_star, s_star, a, b, k_lo, k_hi, run, pos, floor_mm, qx, qy, best, need)
     for m in range(best.shape[0]):
         if need[m]:
             best[m], idx[m], evaluated = search((qx[m], qy[m]), s_star[m], best[m], idx[m], a, b, run, pos, tool,
