@@ -34,6 +34,29 @@ def _window(values: np.ndarray) -> tuple[float, float]:
 
 def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, feed_axis: str = "x",
                     pick_mm: float | None = None, gouge_tol_mm: float = 1e-3) -> dict:
+    cols, rows = inner(surface)
+    machined_pct = float(np.mean(surface.line[np.ix_(rows, cols)] != 0) * 100) if cols.any() and rows.any() else 0.0
+    out = {"grid_um": surface.grid_mm * 1e3, "nodes": int(surface.z_mm.size), "tool": surface.meta.get("tool"),
+           "z_min_mm": float(np.min(surface.z_mm)), "z_max_mm": float(np.max(surface.z_mm)),
+           "machined_pct": machined_pct}
+    if machined_pct >= MACHINED_MIN_PCT:
+        out.update(_raster_figures(surface, reference, feed_axis, pick_mm))
+    else:
+        out.update({key: None for key in RASTER_KEYS})
+        out["note"] = (f"the middle {EVAL_FRACTION:.0%} of the stock is not machined all over ({machined_pct:.1f} % "
+                       f"of its nodes cut, {MACHINED_MIN_PCT:g} % needed): no figures along and across the passes")
+    if reference is not None:
+        dev = surface.z_mm - reference
+        out["deviation_min_um"] = float(np.nanmin(dev) * 1e3)
+        out["deviation_max_um"] = float(np.nanmax(dev) * 1e3)
+        gl = gouges(surface, np.nan_to_num(reference, nan=-np.inf), gouge_tol_mm)
+        out["gouges"] = gouge_report(gl, surface, np.nan_to_num(reference, nan=-np.inf))
+        out["_gouge_line"] = gl
+    return out
+
+
+def _raster_figures(surface: Surface, reference: np.ndarray | None, feed_axis: str, pick_mm: float | None) -> dict:
+    """The figures along and across the passes (RASTER_KEYS)."""
     across_axis = "y" if feed_axis == "x" else "x"
     along_values = surface.x_mm if feed_axis == "x" else surface.y_mm
     across_values = surface.y_mm if feed_axis == "x" else surface.x_mm
@@ -49,32 +72,15 @@ def surface_figures(surface: Surface, *, reference: np.ndarray | None = None, fe
 
     across = profile_figures(*profile(surface, across_axis, 0.5 * (a_lo + a_hi), c_lo, c_hi, reference),
                              form_removed=form_removed, periodic=True)
-    cols, rows_in = inner(surface)
-    machined_pct = float(np.mean(surface.line[np.ix_(rows_in, cols)] != 0) * 100) if cols.any() and rows_in.any() \
-        else 0.0
-    out = {"grid_um": surface.grid_mm * 1e3, "nodes": int(surface.z_mm.size), "tool": surface.meta.get("tool"),
-           "z_min_mm": float(np.min(surface.z_mm)), "z_max_mm": float(np.max(surface.z_mm)),
-           "machined_pct": machined_pct,
-           "along_rz_um": median("rz_um"), "along_ra_um": median("ra_um"),
-           "facet_spacing_mm": median("facet_spacing_mm"), "facet_depth_um": median("facet_depth_um"),
-           "scallop_um": across.facet_depth_um, "pass_spacing_mm": across.facet_spacing_mm,
-           "across_rz_um": across.rz_um}
+    figures = {"along_rz_um": median("rz_um"), "along_ra_um": median("ra_um"),
+               "facet_spacing_mm": median("facet_spacing_mm"), "facet_depth_um": median("facet_depth_um"),
+               "scallop_um": across.facet_depth_um, "pass_spacing_mm": across.facet_spacing_mm,
+               "across_rz_um": across.rz_um}
     r_mm = surface.meta.get("tool_corner_mm") if surface.meta.get("tool_shape") == "ball" else None
     spacing = pick_mm or surface.meta.get("pick_mm") or across.facet_spacing_mm
-    out["classical_pick_mm"] = spacing if r_mm else None
-    out["classical_scallop_um"] = classical_scallop_mm(r_mm, spacing) * 1e3 if r_mm and spacing else None
-    if machined_pct < MACHINED_MIN_PCT:
-        out.update({key: None for key in RASTER_KEYS})
-        out["note"] = (f"the middle {EVAL_FRACTION:.0%} of the stock is not machined all over ({machined_pct:.1f} % "
-                       f"of its nodes cut, {MACHINED_MIN_PCT:g} % needed): no figures along and across the passes")
-    if reference is not None:
-        dev = surface.z_mm - reference
-        out["deviation_min_um"] = float(np.nanmin(dev) * 1e3)
-        out["deviation_max_um"] = float(np.nanmax(dev) * 1e3)
-        gl = gouges(surface, np.nan_to_num(reference, nan=-np.inf), gouge_tol_mm)
-        out["gouges"] = gouge_report(gl, surface, np.nan_to_num(reference, nan=-np.inf))
-        out["_gouge_line"] = gl
-    return out
+    figures["classical_pick_mm"] = spacing if r_mm else None
+    figures["classical_scallop_um"] = classical_scallop_mm(r_mm, spacing) * 1e3 if r_mm and spacing else None
+    return figures
 
 
 ROWS = [("grid", "grid_um", "{:g} um"), ("nodes", "nodes", "{:,}"), ("Z min", "z_min_mm", "{:.4f} mm"),
